@@ -1,0 +1,31 @@
+// Topic names and their QoS: one place, used by the server, the clients and locsim.
+// README "Topics" documents each; a new topic goes here first.
+#pragma once
+
+namespace locd::topics {
+
+// Sensors, robot -> locd. Reliable, keep-last (small depth), keyed by robot_id.
+inline constexpr const char* kOdometry = "locd/odometry";
+inline constexpr const char* kImu = "locd/imu";
+inline constexpr const char* kScan = "locd/scan";
+inline constexpr const char* kCloud = "locd/cloud";
+inline constexpr const char* kImage = "locd/image";
+inline constexpr const char* kDetections = "locd/detections";
+
+// Outputs, locd -> anyone.
+inline constexpr const char* kPose = "locd/pose";                  // reliable, keep-last 1
+inline constexpr const char* kDiagnostics = "locd/diagnostics";    // reliable, keep-last
+inline constexpr const char* kGrid = "locd/grid";                  // transient-local
+inline constexpr const char* kMapCloud = "locd/map_cloud";         // transient-local
+inline constexpr const char* kLandmarkMap = "locd/landmark_map";   // transient-local
+
+// Control and state.
+inline constexpr const char* kSessionRequest = "locd/session_request";  // transient-local
+inline constexpr const char* kSessionStatus = "locd/session_status";    // transient-local
+inline constexpr const char* kInitialPose = "locd/initial_pose";        // transient-local
+inline constexpr const char* kServerInfo = "locd/server_info";          // transient-local
+
+// Simulation ground truth, locsim -> evaluators (PoseEstimate).
+inline constexpr const char* kGroundTruth = "locd/ground_truth";
+
+}  // namespace locd::topics
