@@ -1,0 +1,106 @@
+// The C++ client library a robot program links to (locd::locd_client): publish sensors,
+// request a localizer with YAML, set the initial pose, receive pose and status by callback.
+//
+//   locd::Client client({.domain_id = 0, .robot_id = "robot1"});
+//   client.on_pose([](const locd::PoseUpdate& p) { ... });
+//   auto status = client.request_session("feature_ekf", yaml_text, std::chrono::seconds(5));
+//   if (!status.request_ok) std::cerr << status.message << "\n";
+//   client.publish(odometry); client.publish(scan);
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "locd/sdk/types.hpp"
+
+namespace locd {
+
+// A session's state as the server reports it (mirrors locd_msg_SessionStatus).
+struct SessionStatus {
+  std::string robot_id;
+  std::string server_id;
+  std::string state;  // "starting", "running", "stopped", "error", "no_session"
+  std::string plugin;
+  uint64_t request_id = 0;
+  bool request_ok = false;
+  std::string message;     // outcome of the last request
+  std::string last_error;  // last rejected input or failure
+  uint64_t received = 0, used = 0, dropped = 0, rejected = 0, updates = 0;
+  double last_update_ms = 0.0;
+  int64_t stamp_ns = 0;
+};
+
+struct PoseUpdate {
+  std::string robot_id;
+  std::string plugin;
+  PoseEstimate estimate;
+  double update_ms = 0.0;        // plugin compute time for this pose
+  int64_t received_wall_ns = 0;  // CLOCK_REALTIME when the client received it
+};
+
+struct PluginInfo {
+  std::string name, version, description;
+  std::vector<std::string> consumes;
+};
+
+struct ServerInfo {
+  std::string server_id;
+  std::vector<PluginInfo> plugins;
+  std::vector<std::string> rejected_plugins;
+};
+
+struct ClientOptions {
+  uint32_t domain_id = 0;
+  std::string robot_id;    // the robot this client publishes for; may be empty for pure watchers
+  int sensor_depth = 8;    // keep-last depth of the sensor writers
+};
+
+class Client {
+ public:
+  explicit Client(const ClientOptions& options);
+  ~Client();
+  Client(const Client&) = delete;
+  Client& operator=(const Client&) = delete;
+
+  const std::string& robot_id() const;
+
+  // Sensors for this client's robot. Throw std::runtime_error if DDS fails.
+  void publish(const Odometry& m);
+  void publish(const Imu& m);
+  void publish(const LaserScan& m);
+  void publish(const PointCloud& m);
+  void publish(const Image& m);
+  void publish(const LandmarkDetections& m);
+  // Ground truth (simulators only), on locd/ground_truth.
+  void publish_ground_truth(const PoseEstimate& truth);
+
+  // Sends a session request and waits for the status that answers it (matching request_id).
+  // Returns nullopt on timeout. The returned status says request_ok and the server's message.
+  std::optional<SessionStatus> request_session(const std::string& plugin, const std::string& config_yaml,
+                                               std::chrono::milliseconds timeout);
+  std::optional<SessionStatus> stop_session(std::chrono::milliseconds timeout);
+  void set_initial_pose(const PoseEstimate& pose);
+
+  // Waits until a locd server is discovered (its ServerInfo is received). False on timeout.
+  bool wait_for_server(std::chrono::milliseconds timeout);
+
+  // Callbacks run on a DDS listener thread: copy what you need and return quickly.
+  // robot_filter empty = every robot.
+  void on_pose(std::function<void(const PoseUpdate&)> callback, const std::string& robot_filter = "");
+  void on_status(std::function<void(const SessionStatus&)> callback, const std::string& robot_filter = "");
+
+  // Latest status per robot seen so far (transient-local: includes robots started earlier).
+  std::vector<SessionStatus> statuses() const;
+  std::vector<ServerInfo> servers() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace locd
