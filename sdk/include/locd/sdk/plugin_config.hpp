@@ -1,0 +1,33 @@
+// A robot's localizer config (a file for `locctl use`, SessionRequest.config_yaml, a scenario's
+// localizer, a server boot session):
+//
+//   plugin: feature_ekf        # which localizer (a name, never a path)
+//   params:                    # the plugin's own parameters, validated by its configure()
+//     map: corridor.yaml
+//
+// split_plugin_config checks the frame (known keys, a valid plugin name, params a map) and hands
+// back the plugin name and its parameters, rooted at the plugin's name, so a plugin's errors read
+// "parameter 'feature_ekf.gate_probability' (line 4, column 21) = 1.5 is out of range; ...".
+#pragma once
+
+#include <string>
+
+#include "locd/sdk/params.hpp"
+
+namespace locd {
+
+struct PluginConfig {
+  std::string plugin;
+  Params params;
+};
+
+// Throws ConfigError unless `name` matches [a-z][a-z0-9_]{0,63}; a name with '/' or '.' gets
+// "plugin must be a name, not a path". `what` prefixes the message (e.g. "session request").
+void check_plugin_name(const std::string& name, const std::string& what);
+
+// Parses YAML text (malformed YAML -> ConfigError with source, line and column).
+PluginConfig split_plugin_config(const std::string& yaml_text, const std::string& source_name);
+// Same for a document already parsed (e.g. an inline map inside the server's config).
+PluginConfig split_plugin_config(const Params& document, const std::string& source_name);
+
+}  // namespace locd

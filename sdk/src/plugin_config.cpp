@@ -1,0 +1,37 @@
+#include "locd/sdk/plugin_config.hpp"
+
+#include <regex>
+
+namespace locd {
+
+void check_plugin_name(const std::string& name, const std::string& what) {
+  if (name.find('/') != std::string::npos || name.find('.') != std::string::npos) {
+    throw ConfigError(what + ": plugin '" + name + "': plugin must be a name, not a path");
+  }
+  static const std::regex valid_name("[a-z][a-z0-9_]{0,63}");
+  if (!std::regex_match(name, valid_name)) {
+    throw ConfigError(what + ": plugin '" + name + "' is not a valid plugin name; expected [a-z][a-z0-9_]*");
+  }
+}
+
+PluginConfig split_plugin_config(const Params& document, const std::string& source_name) {
+  document.expect_only({"plugin", "params"});
+  if (!document.has("plugin")) {
+    throw ConfigError(source_name + ": key 'plugin' is missing; expected 'plugin: <name>' and 'params:'");
+  }
+  const std::string plugin = document.required_text("plugin");
+  check_plugin_name(plugin, source_name + " (" + document.where("plugin") + ")");
+  YAML::Node params = document.node()["params"];
+  if (!params.IsDefined() || params.IsNull()) {
+    params = YAML::Node(YAML::NodeType::Map);
+  } else if (!params.IsMap()) {
+    document.fail("params", "is not a map; expected the plugin's parameters as 'key: value' lines");
+  }
+  return {plugin, Params(params, plugin)};
+}
+
+PluginConfig split_plugin_config(const std::string& yaml_text, const std::string& source_name) {
+  return split_plugin_config(Params::parse(yaml_text, source_name), source_name);
+}
+
+}  // namespace locd
