@@ -89,6 +89,11 @@ class Client {
   // Waits until a locd server is discovered (its ServerInfo is received). False on timeout.
   bool wait_for_server(std::chrono::milliseconds timeout);
 
+  // Waits until the session-request and initial-pose writers are matched by at least one reader
+  // and every matched reader acknowledged what was written (call before a short-lived program
+  // exits after set_initial_pose). False on timeout.
+  bool wait_for_delivery(std::chrono::milliseconds timeout);
+
   // Callbacks run on a DDS listener thread: copy what you need and return quickly.
   // robot_filter empty = every robot.
   void on_pose(std::function<void(const PoseUpdate&)> callback, const std::string& robot_filter = "");

@@ -1,0 +1,361 @@
+#include "locd/client/client.hpp"
+
+#include <algorithm>
+#include <condition_variable>
+#include <cmath>
+#include <cstring>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <random>
+#include <set>
+#include <stdexcept>
+#include <thread>
+#include <utility>
+
+#include "locd/dds/convert.hpp"
+#include "locd/dds/dds.hpp"
+#include "locd/dds/topics.hpp"
+#include "locd/sdk/errors.hpp"
+
+namespace locd {
+namespace {
+
+int64_t wall_clock_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::string state_name(locd_msg_SessionState state) {
+  switch (state) {
+    case locd_msg_STATE_STARTING: return "starting";
+    case locd_msg_STATE_RUNNING: return "running";
+    case locd_msg_STATE_STOPPED: return "stopped";
+    case locd_msg_STATE_ERROR: return "error";
+    case locd_msg_STATE_NO_SESSION: return "no_session";
+  }
+  return "unknown(" + std::to_string(static_cast<int>(state)) + ")";
+}
+
+SessionStatus status_from_wire(const locd_msg_SessionStatus& m) {
+  SessionStatus s;
+  s.robot_id = dds::to_string(m.robot_id);
+  s.server_id = dds::to_string(m.server_id);
+  s.state = state_name(m.state);
+  s.plugin = dds::to_string(m.plugin);
+  s.request_id = m.request_id;
+  s.request_ok = m.request_ok;
+  s.message = dds::to_string(m.message);
+  s.last_error = dds::to_string(m.last_error);
+  s.received = m.received;
+  s.used = m.used;
+  s.dropped = m.dropped;
+  s.rejected = m.rejected;
+  s.updates = m.updates;
+  s.last_update_ms = m.last_update_ms;
+  s.stamp_ns = m.header.stamp_ns;
+  return s;
+}
+
+ServerInfo server_info_from_wire(const locd_msg_ServerInfo& m) {
+  ServerInfo info;
+  info.server_id = dds::to_string(m.server_id);
+  info.plugins.reserve(m.plugins._length);
+  for (uint32_t i = 0; i < m.plugins._length; ++i) {
+    const locd_msg_PluginInfo& p = m.plugins._buffer[i];
+    PluginInfo plugin;
+    plugin.name = dds::to_string(p.name);
+    plugin.version = dds::to_string(p.version);
+    plugin.description = dds::to_string(p.description);
+    for (uint32_t k = 0; k < p.consumes._length; ++k) plugin.consumes.push_back(dds::to_string(p.consumes._buffer[k]));
+    info.plugins.push_back(std::move(plugin));
+  }
+  for (uint32_t i = 0; i < m.rejected_plugins._length; ++i) {
+    info.rejected_plugins.push_back(dds::to_string(m.rejected_plugins._buffer[i]));
+  }
+  return info;
+}
+
+// A non-zero request id no other client is likely to pick: 64 random bits.
+uint64_t fresh_request_id() {
+  static std::mutex mutex;
+  static std::mt19937_64 generator{(static_cast<uint64_t>(std::random_device{}()) << 32) ^ std::random_device{}() ^
+                                   static_cast<uint64_t>(wall_clock_ns())};
+  std::lock_guard<std::mutex> lock(mutex);
+  uint64_t id = 0;
+  while (id == 0) id = generator();
+  return id;
+}
+
+template <typename Callback>
+struct Subscription {
+  Callback callback;
+  std::string robot_filter;
+};
+
+}  // namespace
+
+struct Client::Impl {
+  explicit Impl(const ClientOptions& o)
+      : options(o),
+        participant(static_cast<dds_domainid_t>(o.domain_id)),
+        odometry(participant, topics::kOdometry, dds::QosProfile::kSensor, o.sensor_depth),
+        imu(participant, topics::kImu, dds::QosProfile::kSensor, o.sensor_depth),
+        scan(participant, topics::kScan, dds::QosProfile::kSensor, o.sensor_depth),
+        cloud(participant, topics::kCloud, dds::QosProfile::kSensor, o.sensor_depth),
+        image(participant, topics::kImage, dds::QosProfile::kSensor, o.sensor_depth),
+        detections(participant, topics::kDetections, dds::QosProfile::kSensor, o.sensor_depth),
+        ground_truth(participant, topics::kGroundTruth, dds::QosProfile::kSensor, o.sensor_depth),
+        session_request(participant, topics::kSessionRequest, dds::QosProfile::kState),
+        initial_pose(participant, topics::kInitialPose, dds::QosProfile::kState) {
+    // Readers last: their listeners call into the state above as soon as they exist.
+    pose_reader = dds::Reader<locd_msg_PoseEstimate>(participant, topics::kPose, dds::QosProfile::kPose,
+                                                      [this](const locd_msg_PoseEstimate& m) { on_pose(m); });
+    status_reader = dds::Reader<locd_msg_SessionStatus>(participant, topics::kSessionStatus, dds::QosProfile::kState,
+                                                         [this](const locd_msg_SessionStatus& m) { on_status(m); });
+    server_reader = dds::Reader<locd_msg_ServerInfo>(participant, topics::kServerInfo, dds::QosProfile::kState,
+                                                      [this](const locd_msg_ServerInfo& m) { on_server_info(m); });
+  }
+
+  ~Impl() {
+    // Stop the listeners before the state they use goes away.
+    server_reader = {};
+    status_reader = {};
+    pose_reader = {};
+  }
+
+  void require_robot(const char* what) const {
+    if (options.robot_id.empty()) {
+      throw std::logic_error(std::string(what) + " needs a robot: ClientOptions::robot_id is empty");
+    }
+  }
+
+  void on_pose(const locd_msg_PoseEstimate& m) {
+    PoseUpdate update;
+    update.received_wall_ns = wall_clock_ns();
+    update.robot_id = dds::to_string(m.robot_id);
+    update.plugin = dds::to_string(m.plugin);
+    update.update_ms = m.update_ms;
+    try {
+      update.estimate = dds::from_wire(m);
+    } catch (const std::exception& e) {
+      std::cerr << "locd client: dropped a pose on " << topics::kPose << " for robot '" << update.robot_id
+                << "': " << e.what() << "\n";
+      return;
+    }
+    std::vector<Subscription<std::function<void(const PoseUpdate&)>>> subscribers;
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      subscribers = pose_subscribers;
+    }
+    for (const auto& s : subscribers) {
+      if (s.robot_filter.empty() || s.robot_filter == update.robot_id) s.callback(update);
+    }
+  }
+
+  void on_status(const locd_msg_SessionStatus& m) {
+    const SessionStatus status = status_from_wire(m);
+    std::vector<Subscription<std::function<void(const SessionStatus&)>>> subscribers;
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      latest_status[status.robot_id] = status;
+      // A request is answered by the first status for its robot carrying its id with an outcome
+      // (a "starting" status only says the request arrived).
+      if (status.robot_id == options.robot_id && pending_requests.count(status.request_id) &&
+          status.state != "starting") {
+        answers[status.request_id] = status;
+      }
+      subscribers = status_subscribers;
+    }
+    changed.notify_all();
+    for (const auto& s : subscribers) {
+      if (s.robot_filter.empty() || s.robot_filter == status.robot_id) s.callback(status);
+    }
+  }
+
+  void on_server_info(const locd_msg_ServerInfo& m) {
+    ServerInfo info = server_info_from_wire(m);
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      servers[info.server_id] = std::move(info);
+    }
+    changed.notify_all();
+  }
+
+  std::optional<SessionStatus> send_request(locd_msg_SessionAction action, const std::string& plugin,
+                                            const std::string& config_yaml, std::chrono::milliseconds timeout) {
+    require_robot(action == locd_msg_SESSION_START ? "request_session" : "stop_session");
+    // 256 KiB of config_yaml: on the heap, never on the stack.
+    auto request = std::make_unique<locd_msg_SessionRequest>();
+    std::memset(request.get(), 0, sizeof(locd_msg_SessionRequest));
+    try {
+      dds::copy_string(request->robot_id, options.robot_id);
+    } catch (const std::length_error& e) {
+      throw std::invalid_argument("robot_id " + std::string(e.what()));
+    }
+    try {
+      dds::copy_string(request->plugin, plugin);
+    } catch (const std::length_error& e) {
+      throw std::invalid_argument("plugin name " + std::string(e.what()));
+    }
+    if (config_yaml.size() >= sizeof(request->config_yaml)) {
+      throw std::invalid_argument("config_yaml is " + std::to_string(config_yaml.size()) + " bytes; " +
+                                  topics::kSessionRequest + " allows at most " +
+                                  std::to_string(sizeof(request->config_yaml) - 1));
+    }
+    dds::copy_string(request->config_yaml, config_yaml);
+    request->action = action;
+    request->request_id = fresh_request_id();
+    const uint64_t id = request->request_id;
+
+    std::unique_lock<std::mutex> lock(mutex);
+    pending_requests.insert(id);
+    lock.unlock();
+    try {
+      session_request.write(*request);
+    } catch (...) {
+      lock.lock();
+      pending_requests.erase(id);
+      throw;
+    }
+    lock.lock();
+    const bool answered = changed.wait_for(lock, timeout, [&] { return answers.count(id) > 0; });
+    pending_requests.erase(id);
+    if (!answered) return std::nullopt;
+    SessionStatus answer = std::move(answers[id]);
+    answers.erase(id);
+    return answer;
+  }
+
+  ClientOptions options;
+  dds::Participant participant;
+  dds::Writer<locd_msg_Odometry> odometry;
+  dds::Writer<locd_msg_Imu> imu;
+  dds::Writer<locd_msg_LaserScan> scan;
+  dds::Writer<locd_msg_PointCloud> cloud;
+  dds::Writer<locd_msg_Image> image;
+  dds::Writer<locd_msg_LandmarkDetections> detections;
+  dds::Writer<locd_msg_PoseEstimate> ground_truth;
+  dds::Writer<locd_msg_SessionRequest> session_request;
+  dds::Writer<locd_msg_InitialPose> initial_pose;
+
+  mutable std::mutex mutex;
+  std::condition_variable changed;
+  std::map<std::string, SessionStatus> latest_status;  // by robot_id
+  std::map<std::string, ServerInfo> servers;           // by server_id
+  std::set<uint64_t> pending_requests;
+  std::map<uint64_t, SessionStatus> answers;  // by request_id, for pending requests only
+  std::vector<Subscription<std::function<void(const PoseUpdate&)>>> pose_subscribers;
+  std::vector<Subscription<std::function<void(const SessionStatus&)>>> status_subscribers;
+
+  dds::Reader<locd_msg_PoseEstimate> pose_reader;
+  dds::Reader<locd_msg_SessionStatus> status_reader;
+  dds::Reader<locd_msg_ServerInfo> server_reader;
+};
+
+Client::Client(const ClientOptions& options) : impl_(std::make_unique<Impl>(options)) {}
+Client::~Client() = default;
+
+const std::string& Client::robot_id() const { return impl_->options.robot_id; }
+
+void Client::publish(const Odometry& m) {
+  impl_->require_robot("publish(Odometry)");
+  dds::write(impl_->odometry, impl_->options.robot_id, m);
+}
+void Client::publish(const Imu& m) {
+  impl_->require_robot("publish(Imu)");
+  dds::write(impl_->imu, impl_->options.robot_id, m);
+}
+void Client::publish(const LaserScan& m) {
+  impl_->require_robot("publish(LaserScan)");
+  dds::write(impl_->scan, impl_->options.robot_id, m);
+}
+void Client::publish(const PointCloud& m) {
+  impl_->require_robot("publish(PointCloud)");
+  dds::write(impl_->cloud, impl_->options.robot_id, m);
+}
+void Client::publish(const Image& m) {
+  impl_->require_robot("publish(Image)");
+  if (m.channels != 1 && m.channels != 3) {
+    throw std::invalid_argument("image channels = " + std::to_string(m.channels) + "; allowed: 1 (mono8), 3 (bgr8)");
+  }
+  if (m.width < 0 || m.height < 0 ||
+      m.data.size() != static_cast<size_t>(m.width) * static_cast<size_t>(m.height) * static_cast<size_t>(m.channels)) {
+    throw std::invalid_argument("image data is " + std::to_string(m.data.size()) + " bytes; width * height * channels = " +
+                                std::to_string(static_cast<long long>(m.width) * m.height * m.channels));
+  }
+  dds::write(impl_->image, impl_->options.robot_id, m);
+}
+void Client::publish(const LandmarkDetections& m) {
+  impl_->require_robot("publish(LandmarkDetections)");
+  dds::write(impl_->detections, impl_->options.robot_id, m);
+}
+void Client::publish_ground_truth(const PoseEstimate& truth) {
+  impl_->require_robot("publish_ground_truth");
+  dds::write(impl_->ground_truth, impl_->options.robot_id, truth, "ground_truth");
+}
+
+std::optional<SessionStatus> Client::request_session(const std::string& plugin, const std::string& config_yaml,
+                                                     std::chrono::milliseconds timeout) {
+  return impl_->send_request(locd_msg_SESSION_START, plugin, config_yaml, timeout);
+}
+
+std::optional<SessionStatus> Client::stop_session(std::chrono::milliseconds timeout) {
+  return impl_->send_request(locd_msg_SESSION_STOP, "", "", timeout);
+}
+
+void Client::set_initial_pose(const PoseEstimate& pose) {
+  impl_->require_robot("set_initial_pose");
+  dds::write(impl_->initial_pose, impl_->options.robot_id, pose);
+}
+
+bool Client::wait_for_server(std::chrono::milliseconds timeout) {
+  std::unique_lock<std::mutex> lock(impl_->mutex);
+  return impl_->changed.wait_for(lock, timeout, [&] { return !impl_->servers.empty(); });
+}
+
+bool Client::wait_for_delivery(std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  for (const dds_entity_t writer : {impl_->session_request.handle(), impl_->initial_pose.handle()}) {
+    dds_publication_matched_status_t matched{};
+    for (;;) {
+      dds::check(dds_get_publication_matched_status(writer, &matched), "publication matched status");
+      if (matched.current_count > 0) break;
+      if (std::chrono::steady_clock::now() >= deadline) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    const auto left = std::chrono::duration_cast<std::chrono::nanoseconds>(deadline - std::chrono::steady_clock::now());
+    const dds_return_t rc = dds_wait_for_acks(writer, std::max<int64_t>(0, left.count()));
+    if (rc == DDS_RETCODE_TIMEOUT) return false;
+    dds::check(rc, "wait for acknowledgments");
+  }
+  return true;
+}
+
+void Client::on_pose(std::function<void(const PoseUpdate&)> callback, const std::string& robot_filter) {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->pose_subscribers.push_back({std::move(callback), robot_filter});
+}
+
+void Client::on_status(std::function<void(const SessionStatus&)> callback, const std::string& robot_filter) {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->status_subscribers.push_back({std::move(callback), robot_filter});
+}
+
+std::vector<SessionStatus> Client::statuses() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  std::vector<SessionStatus> out;
+  out.reserve(impl_->latest_status.size());
+  for (const auto& [robot, status] : impl_->latest_status) out.push_back(status);
+  return out;
+}
+
+std::vector<ServerInfo> Client::servers() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  std::vector<ServerInfo> out;
+  out.reserve(impl_->servers.size());
+  for (const auto& [id, info] : impl_->servers) out.push_back(info);
+  return out;
+}
+
+}  // namespace locd
