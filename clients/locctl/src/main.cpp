@@ -1,0 +1,396 @@
+// locctl: start, switch, stop and watch locd sessions from a shell. See `locctl --help`.
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <cerrno>
+#include <deque>
+#include <fstream>
+#include <iostream>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include "command_line.hpp"
+#include "json.hpp"
+#include "locd/client/client.hpp"
+#include "locd/sdk/errors.hpp"
+#include "locd/sdk/plugin_config.hpp"
+
+namespace locd::locctl {
+namespace {
+
+using std::chrono::milliseconds;
+using Clock = std::chrono::steady_clock;
+
+constexpr int kExitFailure = 1;
+constexpr int kExitUsage = 2;
+
+// A failure to report: locctl prints it (as {"ok":false,"error":...} with --json) and exits 1.
+class Failure : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+std::atomic<bool> interrupted{false};
+void on_interrupt(int) { interrupted = true; }
+
+milliseconds to_ms(double seconds) { return milliseconds(static_cast<int64_t>(std::llround(seconds * 1000.0))); }
+
+std::string seconds_text(double s) {
+  std::ostringstream out;
+  out << s << " s";
+  return out.str();
+}
+
+std::string no_server_message(const CommandLine& cl, double timeout_s) {
+  const char* uri = std::getenv("CYCLONEDDS_URI");
+  return "no locd server found on DDS domain " + std::to_string(cl.domain) + " within " + seconds_text(timeout_s) +
+         " (CYCLONEDDS_URI=" + (uri && *uri ? std::string(uri) : std::string("unset: Cyclone's default interface")) +
+         "); is locd running with the same domain and the same CYCLONEDDS_URI? (--domain N, --timeout S)";
+}
+
+ClientOptions client_options(const CommandLine& cl, const std::string& robot) {
+  ClientOptions o;
+  o.domain_id = cl.domain;
+  o.robot_id = robot;
+  return o;
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Failure("cannot read config file '" + path + "': " + std::strerror(errno));
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw Failure("cannot read config file '" + path + "'");
+  return text.str();
+}
+
+std::string status_json(const SessionStatus& s) {
+  return JsonObject()
+      .add("robot", s.robot_id)
+      .add("server", s.server_id)
+      .add("state", s.state)
+      .add("plugin", s.plugin)
+      .add("request_id", s.request_id)
+      .add("request_ok", s.request_ok)
+      .add("message", s.message)
+      .add("last_error", s.last_error)
+      .add("received", s.received)
+      .add("used", s.used)
+      .add("dropped", s.dropped)
+      .add("rejected", s.rejected)
+      .add("updates", s.updates)
+      .add("last_update_ms", s.last_update_ms)
+      .add("stamp_ns", s.stamp_ns)
+      .str();
+}
+
+// Prints the answer to a session request (use, stop); exit 0 when the server accepted it.
+int report_answer(const CommandLine& cl, const std::string& robot, const std::optional<SessionStatus>& answer,
+                  double timeout_s, const std::vector<ServerInfo>& servers) {
+  if (!answer) {
+    std::string names;
+    for (const auto& s : servers) names += (names.empty() ? "" : ", ") + s.server_id;
+    throw Failure("no answer to the " + cl.command + " request for robot '" + robot + "' within " +
+                  seconds_text(timeout_s) + " (servers seen: " + (names.empty() ? "none" : names) +
+                  "); try a longer --timeout");
+  }
+  if (cl.json) {
+    std::cout << JsonObject()
+                     .add("command", cl.command)
+                     .add("ok", answer->request_ok)
+                     .add_raw("status", status_json(*answer))
+                     .str()
+              << "\n";
+  } else {
+    std::ostream& out = answer->request_ok ? std::cout : std::cerr;
+    out << robot << ": " << (answer->request_ok ? "ok" : "refused") << " by server " << answer->server_id
+        << " (state " << answer->state << (answer->plugin.empty() ? "" : ", plugin " + answer->plugin) << "): "
+        << answer->message << "\n";
+  }
+  return answer->request_ok ? 0 : kExitFailure;
+}
+
+int command_use(const CommandLine& cl) {
+  const std::string& robot = cl.arguments[0];
+  const std::string& file = cl.arguments[1];
+  const double timeout_s = cl.timeout_s.value_or(10.0);
+  const std::string text = read_file(file);
+  PluginConfig config;
+  try {
+    config = split_plugin_config(text, file);
+  } catch (const std::exception& e) {
+    throw Failure(std::string("invalid plugin config: ") + e.what());
+  }
+  const auto deadline = Clock::now() + to_ms(timeout_s);
+  Client client(client_options(cl, robot));
+  if (!client.wait_for_server(to_ms(timeout_s))) throw Failure(no_server_message(cl, timeout_s));
+  const auto left = std::chrono::duration_cast<milliseconds>(deadline - Clock::now());
+  const auto answer = client.request_session(config.plugin, text, std::max(left, milliseconds(1)));
+  return report_answer(cl, robot, answer, timeout_s, client.servers());
+}
+
+int command_stop(const CommandLine& cl) {
+  const std::string& robot = cl.arguments[0];
+  const double timeout_s = cl.timeout_s.value_or(10.0);
+  const auto deadline = Clock::now() + to_ms(timeout_s);
+  Client client(client_options(cl, robot));
+  if (!client.wait_for_server(to_ms(timeout_s))) throw Failure(no_server_message(cl, timeout_s));
+  const auto left = std::chrono::duration_cast<milliseconds>(deadline - Clock::now());
+  const auto answer = client.stop_session(std::max(left, milliseconds(1)));
+  return report_answer(cl, robot, answer, timeout_s, client.servers());
+}
+
+int command_initial_pose(const CommandLine& cl) {
+  const std::string& robot = cl.arguments[0];
+  const double x = std::stod(cl.arguments[1]), y = std::stod(cl.arguments[2]), yaw = std::stod(cl.arguments[3]);
+  const double timeout_s = cl.timeout_s.value_or(5.0);
+  Client client(client_options(cl, robot));
+  if (!client.wait_for_server(to_ms(timeout_s))) throw Failure(no_server_message(cl, timeout_s));
+  PoseEstimate pose;
+  pose.header.stamp_ns =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+  pose.header.frame_id = "map";
+  pose.pose = Eigen::Translation3d(x, y, 0.0) * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ());
+  pose.covariance = Matrix6d::Zero();
+  pose.covariance(0, 0) = pose.covariance(1, 1) = cl.std_xy * cl.std_xy;
+  pose.covariance(5, 5) = cl.std_yaw * cl.std_yaw;
+  client.set_initial_pose(pose);
+  if (!client.wait_for_delivery(to_ms(timeout_s))) {
+    throw Failure("the initial pose for robot '" + robot + "' was not acknowledged by the server within " +
+                  seconds_text(timeout_s));
+  }
+  if (cl.json) {
+    std::cout << JsonObject().add("command", "initial-pose").add("ok", true).add("robot", robot).add("x", x).add("y", y)
+                     .add("yaw", yaw).add("std_xy", cl.std_xy).add("std_yaw", cl.std_yaw).str()
+              << "\n";
+  } else {
+    std::cout << robot << ": initial pose x=" << x << " y=" << y << " yaw=" << yaw << " rad delivered\n";
+  }
+  return 0;
+}
+
+std::string pad(std::string text, size_t width) {
+  if (text.size() < width) text.append(width - text.size(), ' ');
+  return text;
+}
+
+int command_status(const CommandLine& cl) {
+  const std::string robot = cl.arguments.empty() ? "" : cl.arguments[0];
+  const double timeout_s = cl.timeout_s.value_or(2.0);
+  Client client(client_options(cl, ""));
+  // Transient-local statuses arrive right after discovery; wait for all of them until the
+  // timeout, or only until the one robot asked for has reported.
+  std::mutex mutex;
+  std::condition_variable seen;
+  bool robot_seen = false;
+  if (!robot.empty()) {
+    client.on_status(
+        [&](const SessionStatus&) {
+          std::lock_guard<std::mutex> lock(mutex);
+          robot_seen = true;
+          seen.notify_all();
+        },
+        robot);
+  }
+  {
+    std::unique_lock<std::mutex> lock(mutex);
+    seen.wait_for(lock, to_ms(timeout_s), [&] {
+      if (robot.empty()) return false;
+      for (const auto& s : client.statuses()) robot_seen = robot_seen || s.robot_id == robot;
+      return robot_seen;
+    });
+  }
+  std::vector<SessionStatus> statuses;
+  for (auto& s : client.statuses()) {
+    if (robot.empty() || s.robot_id == robot) statuses.push_back(std::move(s));
+  }
+  const auto servers = client.servers();
+  if (statuses.empty() && servers.empty()) throw Failure(no_server_message(cl, timeout_s));
+  if (statuses.empty() && !robot.empty()) {
+    throw Failure("robot '" + robot + "' has no session on any of the " + std::to_string(servers.size()) +
+                  " server(s) found; start one with: locctl use " + robot + " CONFIG.yaml");
+  }
+  if (cl.json) {
+    std::vector<std::string> items;
+    for (const auto& s : statuses) items.push_back(status_json(s));
+    std::vector<std::string> server_ids;
+    for (const auto& s : servers) server_ids.push_back(s.server_id);
+    std::cout << JsonObject().add("command", "status").add("ok", true).add("servers", server_ids)
+                     .add_raw("sessions", json_array(items)).str()
+              << "\n";
+    return 0;
+  }
+  if (statuses.empty()) {
+    std::cout << "no sessions on " << servers.size() << " server(s)\n";
+    return 0;
+  }
+  const std::vector<std::string> header = {"ROBOT", "STATE", "PLUGIN", "SERVER", "RECEIVED", "USED",
+                                           "DROPPED", "REJECTED", "UPDATES", "LAST_MS", "LAST_ERROR"};
+  std::vector<std::vector<std::string>> rows = {header};
+  for (const auto& s : statuses) {
+    char last_ms[32];
+    std::snprintf(last_ms, sizeof(last_ms), "%.3f", s.last_update_ms);
+    rows.push_back({s.robot_id, s.state, s.plugin.empty() ? "-" : s.plugin, s.server_id, std::to_string(s.received),
+                    std::to_string(s.used), std::to_string(s.dropped), std::to_string(s.rejected),
+                    std::to_string(s.updates), last_ms, s.last_error.empty() ? "-" : s.last_error});
+  }
+  std::vector<size_t> widths(header.size(), 0);
+  for (const auto& row : rows) {
+    for (size_t c = 0; c < row.size(); ++c) widths[c] = std::max(widths[c], row[c].size());
+  }
+  for (const auto& row : rows) {
+    std::string line;
+    for (size_t c = 0; c < row.size(); ++c) line += (c + 1 < row.size() ? pad(row[c], widths[c] + 2) : row[c]);
+    std::cout << line << "\n";
+  }
+  return 0;
+}
+
+int command_plugins(const CommandLine& cl) {
+  const double timeout_s = cl.timeout_s.value_or(2.0);
+  Client client(client_options(cl, ""));
+  // Every server publishes its ServerInfo transient-local; collect for the whole timeout so
+  // servers discovered a little later are listed too.
+  const auto deadline = Clock::now() + to_ms(timeout_s);
+  client.wait_for_server(to_ms(timeout_s));
+  std::this_thread::sleep_until(deadline);
+  const auto servers = client.servers();
+  if (servers.empty()) throw Failure(no_server_message(cl, timeout_s));
+  if (cl.json) {
+    std::vector<std::string> items;
+    for (const auto& s : servers) {
+      std::vector<std::string> plugins;
+      for (const auto& p : s.plugins) {
+        plugins.push_back(JsonObject().add("name", p.name).add("version", p.version).add("description", p.description)
+                              .add("consumes", p.consumes).str());
+      }
+      items.push_back(JsonObject().add("server", s.server_id).add_raw("plugins", json_array(plugins))
+                          .add("rejected_plugins", s.rejected_plugins).str());
+    }
+    std::cout << JsonObject().add("command", "plugins").add("ok", true).add_raw("servers", json_array(items)).str()
+              << "\n";
+    return 0;
+  }
+  for (const auto& s : servers) {
+    std::cout << "server " << s.server_id << ": " << s.plugins.size() << " plugin(s)\n";
+    for (const auto& p : s.plugins) {
+      std::string consumes;
+      for (const auto& k : p.consumes) consumes += (consumes.empty() ? "" : ",") + k;
+      std::cout << "  " << p.name << " " << p.version << "  consumes " << (consumes.empty() ? "-" : consumes) << "  "
+                << p.description << "\n";
+    }
+    for (const auto& r : s.rejected_plugins) std::cout << "  rejected: " << r << "\n";
+  }
+  return 0;
+}
+
+double yaw_of(const Eigen::Isometry3d& pose) { return std::atan2(pose.linear()(1, 0), pose.linear()(0, 0)); }
+
+std::string stamp_text(int64_t stamp_ns) {
+  char text[48];
+  const int64_t seconds = stamp_ns / 1'000'000'000;
+  const int64_t micros = (stamp_ns % 1'000'000'000) / 1000;
+  std::snprintf(text, sizeof(text), "%lld.%06lld", static_cast<long long>(seconds),
+                static_cast<long long>(micros < 0 ? -micros : micros));
+  return text;
+}
+
+int command_watch(const CommandLine& cl) {
+  const std::string& robot = cl.arguments[0];
+  std::mutex mutex;
+  std::condition_variable arrived;
+  std::deque<PoseUpdate> queue;
+  Client client(client_options(cl, ""));
+  client.on_pose(
+      [&](const PoseUpdate& p) {
+        std::lock_guard<std::mutex> lock(mutex);
+        queue.push_back(p);
+        arrived.notify_one();
+      },
+      robot);
+  std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);
+  long printed = 0;
+  auto last_pose = Clock::now();
+  while (!interrupted && (!cl.count || printed < *cl.count)) {
+    std::unique_lock<std::mutex> lock(mutex);
+    arrived.wait_for(lock, milliseconds(100), [&] { return !queue.empty(); });
+    if (queue.empty()) {
+      if (cl.timeout_s && Clock::now() - last_pose > to_ms(*cl.timeout_s)) {
+        throw Failure("no pose for robot '" + robot + "' within " + seconds_text(*cl.timeout_s) +
+                      (client.servers().empty() ? "; " + no_server_message(cl, *cl.timeout_s)
+                                                : " (a server is up: is the robot's session running? locctl status " +
+                                                      robot + ")"));
+      }
+      continue;
+    }
+    const PoseUpdate p = std::move(queue.front());
+    queue.pop_front();
+    lock.unlock();
+    last_pose = Clock::now();
+    const Eigen::Isometry3d& T = p.estimate.pose;
+    const double yaw_deg = yaw_of(T) * 180.0 / M_PI;
+    const double std_x = std::sqrt(std::max(0.0, p.estimate.covariance(0, 0)));
+    const double std_y = std::sqrt(std::max(0.0, p.estimate.covariance(1, 1)));
+    if (cl.json) {
+      std::cout << JsonObject().add("robot", p.robot_id).add("stamp_ns", p.estimate.header.stamp_ns)
+                       .add("x", T.translation().x()).add("y", T.translation().y()).add("yaw_deg", yaw_deg)
+                       .add("std_x", std_x).add("std_y", std_y).add("plugin", p.plugin).add("update_ms", p.update_ms)
+                       .str()
+                << std::endl;
+    } else {
+      char line[256];
+      std::snprintf(line, sizeof(line), "%s x=%.3f y=%.3f yaw=%.2fdeg std_x=%.3f std_y=%.3f plugin=%s update=%.3fms",
+                    stamp_text(p.estimate.header.stamp_ns).c_str(), T.translation().x(), T.translation().y(), yaw_deg,
+                    std_x, std_y, p.plugin.c_str(), p.update_ms);
+      std::cout << line << std::endl;
+    }
+    ++printed;
+  }
+  return 0;
+}
+
+int run(const CommandLine& cl) {
+  if (cl.command == "use") return command_use(cl);
+  if (cl.command == "status") return command_status(cl);
+  if (cl.command == "watch") return command_watch(cl);
+  if (cl.command == "plugins") return command_plugins(cl);
+  if (cl.command == "stop") return command_stop(cl);
+  if (cl.command == "initial-pose") return command_initial_pose(cl);
+  throw UsageError("unknown command '" + cl.command + "'");
+}
+
+}  // namespace
+}  // namespace locd::locctl
+
+int main(int argc, char** argv) {
+  using namespace locd::locctl;
+  CommandLine cl;
+  try {
+    cl = parse_command_line(std::vector<std::string>(argv + 1, argv + argc), std::getenv("LOCD_DOMAIN"));
+  } catch (const UsageError& e) {
+    std::cerr << "locctl: " << e.what() << "\n";
+    return kExitUsage;
+  }
+  if (cl.help) {
+    std::cout << kUsage;
+    return 0;
+  }
+  try {
+    return run(cl);
+  } catch (const std::exception& e) {
+    if (cl.json) {
+      std::cout << JsonObject().add("command", cl.command).add("ok", false).add("error", e.what()).str() << "\n";
+    } else {
+      std::cerr << "locctl " << cl.command << ": " << e.what() << "\n";
+    }
+    return kExitFailure;
+  }
+}
