@@ -1,0 +1,76 @@
+// The EKF core: state, covariance, prediction (eq. 5) and measurement update (eq. 9, 13, 14).
+// Models stay outside: a caller passes the predicted state with its Jacobians, or an innovation
+// with its Jacobian and noise. Sized by the state dimension so other motion models (e.g. a
+// [lat, lon, vN, vE] state) reuse it.
+#pragma once
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+
+namespace locd::feature_ekf {
+
+template <int StateSize>
+class ExtendedKalmanFilter {
+ public:
+  using State = Eigen::Matrix<double, StateSize, 1>;
+  using Covariance = Eigen::Matrix<double, StateSize, StateSize>;
+
+  ExtendedKalmanFilter() : state_(State::Zero()), covariance_(Covariance::Identity()) {}
+  ExtendedKalmanFilter(const State& state, const Covariance& covariance)
+      : state_(state), covariance_(covariance) {}
+
+  const State& state() const { return state_; }
+  const Covariance& covariance() const { return covariance_; }
+  void reset(const State& state, const Covariance& covariance) {
+    state_ = state;
+    covariance_ = covariance;
+  }
+  void set_state(const State& state) { state_ = state; }
+
+  // Eq. 5: x(k+1|k) = f(x, u); P(k+1|k) = F P F^T + G Q G^T, with F = df/dx and G = df/du.
+  template <int ControlSize>
+  void predict(const State& predicted_state, const Covariance& F,
+               const Eigen::Matrix<double, StateSize, ControlSize>& G,
+               const Eigen::Matrix<double, ControlSize, ControlSize>& Q) {
+    state_ = predicted_state;
+    covariance_ = F * covariance_ * F.transpose() + G * Q * G.transpose();
+    symmetrize();
+  }
+
+  // Eq. 9: S = H P H^T + R.
+  template <int MeasurementSize>
+  Eigen::Matrix<double, MeasurementSize, MeasurementSize> innovation_covariance(
+      const Eigen::Matrix<double, MeasurementSize, StateSize>& H,
+      const Eigen::Matrix<double, MeasurementSize, MeasurementSize>& R) const {
+    return H * covariance_ * H.transpose() + R;
+  }
+
+  // Eq. 13, 14 with the covariance in Joseph form, (I - W H) P (I - W H)^T + W R W^T, which
+  // stays symmetric positive definite where the paper's P - W S W^T can lose it to rounding.
+  // Returns false (and changes nothing) when S is not positive definite.
+  template <int MeasurementSize>
+  bool update(const Eigen::Matrix<double, MeasurementSize, 1>& innovation,
+              const Eigen::Matrix<double, MeasurementSize, StateSize>& H,
+              const Eigen::Matrix<double, MeasurementSize, MeasurementSize>& R) {
+    using MeasurementMatrix = Eigen::Matrix<double, MeasurementSize, MeasurementSize>;
+    const MeasurementMatrix S = innovation_covariance(H, R);
+    const Eigen::LLT<MeasurementMatrix> llt(S);
+    if (llt.info() != Eigen::Success) return false;
+    // W = P H^T S^-1, computed as (S^-1 H P)^T since S and P are symmetric.
+    const Eigen::Matrix<double, StateSize, MeasurementSize> W =
+        llt.solve(H * covariance_).transpose();
+    state_ += W * innovation;
+    const Covariance I_WH = Covariance::Identity() - W * H;
+    covariance_ = I_WH * covariance_ * I_WH.transpose() + W * R * W.transpose();
+    symmetrize();
+    return true;
+  }
+
+ private:
+  void symmetrize() { covariance_ = 0.5 * (covariance_ + covariance_.transpose()).eval(); }
+
+  State state_;
+  Covariance covariance_;
+};
+
+}  // namespace locd::feature_ekf
