@@ -1,0 +1,59 @@
+// Where sessions and the server publish. The DDS bridge implements it for real; tests record.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "locd/sdk/types.hpp"
+
+namespace locd::server {
+
+enum class SessionState { kStarting, kRunning, kStopped, kError, kNoSession };
+const char* session_state_name(SessionState state);
+
+struct SessionCounters {
+  uint64_t received = 0;  // messages that arrived for the session (good or bad)
+  uint64_t used = 0;      // measurements the plugin accepted
+  uint64_t dropped = 0;   // oldest messages dropped because the queue was full
+  uint64_t rejected = 0;  // bad input: conversion, stamps going backwards, plugin InputError
+  uint64_t updates = 0;   // estimates published
+  double last_update_ms = 0.0;  // plugin compute time of the last update
+};
+
+struct SessionStatusReport {
+  std::string robot_id;
+  int64_t stamp_ns = 0;  // wall clock when made
+  SessionState state = SessionState::kStarting;
+  std::string plugin;
+  uint64_t request_id = 0;
+  bool request_ok = false;
+  std::string message;     // outcome of the last request
+  std::string last_error;  // last rejected input or failure
+  SessionCounters counters;
+};
+
+struct ServerInfoReport {
+  struct Plugin {
+    std::string name, version, description;
+    std::vector<std::string> consumes;
+  };
+  std::string server_id;
+  int64_t started_ns = 0;
+  std::vector<Plugin> plugins;
+  std::vector<std::string> rejected_plugins;
+};
+
+class OutputSink {
+ public:
+  virtual ~OutputSink() = default;
+  virtual void publish_status(const SessionStatusReport& status) = 0;
+  // One update's outputs; `header` is the measurement's (pose stamp = measurement stamp).
+  virtual void publish_outputs(const std::string& robot_id, const std::string& plugin, const Header& header,
+                               const UpdateResult& result, double update_ms) = 0;
+  virtual void publish_server_info(const ServerInfoReport& info) = 0;
+};
+
+int64_t wall_clock_ns();
+
+}  // namespace locd::server

@@ -1,0 +1,45 @@
+// The daemon's own config (config/locd.yaml documents every key). Parsed with locd::Params:
+// every bad key or value is a ConfigError naming the key, where it stands and what is allowed.
+// Relative directories and files resolve against the config file's folder.
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "locd/sdk/plugin.hpp"
+#include "locd/sdk/plugin_config.hpp"
+
+namespace locd::server {
+
+// A session started at boot, so the server runs with no client at all.
+struct BootSession {
+  std::string robot_id;
+  PluginConfig config;                       // plugin name and its params
+  std::string source;                        // where the config came from, for messages
+  std::optional<std::array<double, 3>> initial_pose;  // x, y, yaw
+};
+
+struct ServerConfig {
+  std::string server_id;  // default "<hostname>-<pid>"
+  int domain_id = 0;
+  std::vector<std::filesystem::path> plugin_directories;
+  std::vector<std::filesystem::path> map_directories;
+  int workers = 2;
+  int queue_depth = 64;
+  double status_period_s = 1.0;
+  Limits limits;
+  LogLevel log_level = LogLevel::kInfo;
+  std::vector<BootSession> sessions;
+
+  // `base_directory` anchors relative paths (the config file's folder).
+  static ServerConfig parse(const std::string& yaml_text, const std::string& source_name,
+                            const std::filesystem::path& base_directory);
+  static ServerConfig load_file(const std::filesystem::path& file);
+};
+
+std::string default_server_id();
+
+}  // namespace locd::server

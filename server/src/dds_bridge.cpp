@@ -1,0 +1,192 @@
+#include "locd/server/dds_bridge.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cstring>
+#include <vector>
+
+#include "locd/dds/convert.hpp"
+#include "locd/dds/topics.hpp"
+#include "locd/server/server.hpp"
+
+namespace locd::server {
+namespace {
+
+constexpr int kSensorReaderDepth = 32;
+
+// Copies into a bounded IDL string, cutting what does not fit (status texts may be long).
+template <size_t N>
+void copy_truncated(char (&dst)[N], const std::string& src) {
+  const size_t n = std::min(src.size(), N - 1);
+  std::memcpy(dst, src.data(), n);
+  dst[n] = '\0';
+}
+
+locd_msg_SessionState wire_state(SessionState state) {
+  switch (state) {
+    case SessionState::kStarting: return locd_msg_STATE_STARTING;
+    case SessionState::kRunning: return locd_msg_STATE_RUNNING;
+    case SessionState::kStopped: return locd_msg_STATE_STOPPED;
+    case SessionState::kError: return locd_msg_STATE_ERROR;
+    case SessionState::kNoSession: return locd_msg_STATE_NO_SESSION;
+  }
+  return locd_msg_STATE_ERROR;
+}
+
+Odometry convert(const locd_msg_Odometry& m, const Limits&) { return dds::from_wire(m); }
+Imu convert(const locd_msg_Imu& m, const Limits&) { return dds::from_wire(m); }
+template <typename Wire>
+auto convert(const Wire& m, const Limits& limits) -> decltype(dds::from_wire(m, limits)) {
+  return dds::from_wire(m, limits);
+}
+
+}  // namespace
+
+struct DdsBridge::Readers {
+  dds::Reader<locd_msg_Odometry> odometry;
+  dds::Reader<locd_msg_Imu> imu;
+  dds::Reader<locd_msg_LaserScan> scan;
+  dds::Reader<locd_msg_PointCloud> cloud;
+  dds::Reader<locd_msg_Image> image;
+  dds::Reader<locd_msg_LandmarkDetections> detections;
+  dds::Reader<locd_msg_SessionRequest> session_request;
+  dds::Reader<locd_msg_InitialPose> initial_pose;
+};
+
+DdsBridge::DdsBridge(int domain_id, std::string server_id, const Limits& limits, Logger& logger)
+    : server_id_(std::move(server_id)), limits_(limits), logger_(logger), participant_(static_cast<dds_domainid_t>(domain_id)),
+      pose_(participant_, topics::kPose, dds::QosProfile::kPose),
+      diagnostics_(participant_, topics::kDiagnostics, dds::QosProfile::kSensor),
+      grid_(participant_, topics::kGrid, dds::QosProfile::kState),
+      map_cloud_(participant_, topics::kMapCloud, dds::QosProfile::kState),
+      landmark_map_(participant_, topics::kLandmarkMap, dds::QosProfile::kState),
+      status_(participant_, topics::kSessionStatus, dds::QosProfile::kState),
+      server_info_(participant_, topics::kServerInfo, dds::QosProfile::kState) {}
+
+DdsBridge::~DdsBridge() { disconnect(); }
+
+template <typename Wire>
+static dds::Reader<Wire> sensor_reader(const dds::Participant& participant, const char* topic, Server& server,
+                                       const Limits& limits) {
+  return dds::Reader<Wire>(
+      participant, topic, dds::QosProfile::kSensor,
+      [&server, &limits, topic](const Wire& sample) {
+        const std::string robot_id = dds::to_string(sample.robot_id);
+        try {
+          server.on_measurement(robot_id, Measurement(convert(sample, limits)));
+        } catch (const std::exception& e) {
+          server.on_bad_input(robot_id, topic, e.what());
+        }
+      },
+      kSensorReaderDepth);
+}
+
+void DdsBridge::connect(Server& server) {
+  auto readers = std::make_unique<Readers>();
+  readers->odometry = sensor_reader<locd_msg_Odometry>(participant_, topics::kOdometry, server, limits_);
+  readers->imu = sensor_reader<locd_msg_Imu>(participant_, topics::kImu, server, limits_);
+  readers->scan = sensor_reader<locd_msg_LaserScan>(participant_, topics::kScan, server, limits_);
+  readers->cloud = sensor_reader<locd_msg_PointCloud>(participant_, topics::kCloud, server, limits_);
+  readers->image = sensor_reader<locd_msg_Image>(participant_, topics::kImage, server, limits_);
+  readers->detections = sensor_reader<locd_msg_LandmarkDetections>(participant_, topics::kDetections, server, limits_);
+  Logger* logger = &logger_;
+  readers->session_request = dds::Reader<locd_msg_SessionRequest>(
+      participant_, topics::kSessionRequest, dds::QosProfile::kState,
+      [&server, logger](const locd_msg_SessionRequest& sample) {
+        SessionRequestMessage request;
+        request.robot_id = dds::to_string(sample.robot_id);
+        request.request_id = sample.request_id;
+        request.stop = sample.action == locd_msg_SESSION_STOP;
+        request.plugin = dds::to_string(sample.plugin);
+        request.config_yaml = dds::to_string(sample.config_yaml);
+        try {
+          server.on_session_request(std::move(request));
+        } catch (const std::exception& e) {
+          logger->log(LogLevel::kError, "server", std::string("session request not handled: ") + e.what());
+        }
+      });
+  readers->initial_pose = dds::Reader<locd_msg_InitialPose>(
+      participant_, topics::kInitialPose, dds::QosProfile::kState, [&server](const locd_msg_InitialPose& sample) {
+        const std::string robot_id = dds::to_string(sample.robot_id);
+        try {
+          server.on_initial_pose(robot_id, dds::from_wire(sample));
+        } catch (const std::exception& e) {
+          server.on_bad_input(robot_id, topics::kInitialPose, e.what());
+        }
+      });
+  readers_ = std::move(readers);
+}
+
+void DdsBridge::disconnect() { readers_.reset(); }
+
+void DdsBridge::publish_status(const SessionStatusReport& s) {
+  auto wire = std::make_unique<locd_msg_SessionStatus>();
+  std::memset(wire.get(), 0, sizeof(locd_msg_SessionStatus));
+  copy_truncated(wire->robot_id, s.robot_id);
+  wire->header.stamp_ns = s.stamp_ns;
+  copy_truncated(wire->header.frame_id, "");
+  copy_truncated(wire->server_id, server_id_);
+  wire->state = wire_state(s.state);
+  copy_truncated(wire->plugin, s.plugin);
+  wire->request_id = s.request_id;
+  wire->request_ok = s.request_ok;
+  copy_truncated(wire->message, s.message);
+  copy_truncated(wire->last_error, s.last_error);
+  wire->received = s.counters.received;
+  wire->used = s.counters.used;
+  wire->dropped = s.counters.dropped;
+  wire->rejected = s.counters.rejected;
+  wire->updates = s.counters.updates;
+  wire->last_update_ms = s.counters.last_update_ms;
+  status_.write(*wire);
+}
+
+void DdsBridge::publish_outputs(const std::string& robot_id, const std::string& plugin, const Header& header,
+                                const UpdateResult& result, double update_ms) {
+  if (result.estimate) dds::write(pose_, robot_id, *result.estimate, plugin, update_ms);
+  if (!result.diagnostics.empty()) dds::write(diagnostics_, robot_id, header, plugin, result.diagnostics);
+  if (result.grid) dds::write(grid_, robot_id, header, *result.grid);
+  if (result.map_cloud) dds::write(map_cloud_, robot_id, header, *result.map_cloud);
+  if (result.landmark_map) dds::write(landmark_map_, robot_id, header, *result.landmark_map);
+}
+
+void DdsBridge::publish_server_info(const ServerInfoReport& info) {
+  locd_msg_ServerInfo wire;
+  std::memset(&wire, 0, sizeof wire);
+  copy_truncated(wire.server_id, info.server_id);
+  wire.started_ns = info.started_ns;
+
+  constexpr size_t kMaxPlugins = 256, kMaxRejected = 64, kMaxKinds = 16;
+  std::vector<locd_msg_PluginInfo> plugins(std::min(info.plugins.size(), kMaxPlugins));
+  std::vector<std::vector<std::array<char, 33>>> consumes(plugins.size());
+  for (size_t i = 0; i < plugins.size(); ++i) {
+    const auto& p = info.plugins[i];
+    std::memset(&plugins[i], 0, sizeof plugins[i]);
+    copy_truncated(plugins[i].name, p.name);
+    copy_truncated(plugins[i].version, p.version);
+    copy_truncated(plugins[i].description, p.description);
+    for (size_t k = 0; k < std::min(p.consumes.size(), kMaxKinds); ++k) {
+      std::array<char, 33> kind{};
+      std::strncpy(kind.data(), p.consumes[k].c_str(), kind.size() - 1);
+      consumes[i].push_back(kind);
+    }
+    plugins[i].consumes._length = plugins[i].consumes._maximum = static_cast<uint32_t>(consumes[i].size());
+    plugins[i].consumes._buffer = reinterpret_cast<char(*)[33]>(consumes[i].data());
+    plugins[i].consumes._release = false;
+  }
+  wire.plugins._length = wire.plugins._maximum = static_cast<uint32_t>(plugins.size());
+  wire.plugins._buffer = plugins.data();
+  wire.plugins._release = false;
+
+  std::vector<std::array<char, 257>> rejected(std::min(info.rejected_plugins.size(), kMaxRejected));
+  for (size_t i = 0; i < rejected.size(); ++i) {
+    rejected[i].fill('\0');
+    std::strncpy(rejected[i].data(), info.rejected_plugins[i].c_str(), rejected[i].size() - 1);
+  }
+  wire.rejected_plugins._length = wire.rejected_plugins._maximum = static_cast<uint32_t>(rejected.size());
+  wire.rejected_plugins._buffer = reinterpret_cast<char(*)[257]>(rejected.data());
+  wire.rejected_plugins._release = false;
+  server_info_.write(wire);
+}
+
+}  // namespace locd::server

@@ -1,0 +1,225 @@
+// locd: the localization daemon. See `locd --help` and config/locd.yaml.
+#include <poll.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <iostream>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "locd/dds/dds.hpp"
+#include "locd/sdk/plugin_loader.hpp"
+#include "locd/server/dds_bridge.hpp"
+#include "locd/server/log.hpp"
+#include "locd/server/server.hpp"
+#include "locd/server/server_config.hpp"
+
+namespace {
+
+using namespace locd;
+using namespace locd::server;
+namespace fs = std::filesystem;
+
+constexpr const char* kUsage = R"(locd: localization server for networked robots (DDS)
+
+Usage:
+  locd --config FILE [options]        run the server
+  locd --check-config FILE [options]  validate FILE, its plugin directories and boot sessions; print OK
+                                      or the error; exit 0 or 1
+  locd --help                         this text
+
+Options:
+  --domain N          DDS domain id, overrides the config's domain_id (0..232)
+  --plugin-dir DIR    one more plugin directory (repeatable)
+  --log-level LEVEL   debug | info | warning | error (overrides the config)
+
+DDS settings come from CYCLONEDDS_URI (e.g. file://config/dds/loopback.xml for loopback only).
+SIGINT or SIGTERM shut the server down cleanly.
+)";
+
+struct Options {
+  std::string config_file;
+  bool check_only = false;
+  std::optional<long> domain;
+  std::vector<std::string> plugin_dirs;
+  std::optional<std::string> log_level;
+};
+
+int signal_pipe[2] = {-1, -1};
+
+extern "C" void on_signal(int) {
+  const int saved = errno;
+  const char byte = 1;
+  [[maybe_unused]] const ssize_t n = write(signal_pipe[1], &byte, 1);
+  errno = saved;
+}
+
+Options parse_arguments(int argc, char** argv) {
+  Options o;
+  auto value = [&](int& i, const std::string& flag) -> std::string {
+    if (i + 1 >= argc) throw ConfigError("option " + flag + " needs a value (see locd --help)");
+    return argv[++i];
+  };
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--help" || arg == "-h") {
+      std::cout << kUsage;
+      std::exit(0);
+    } else if (arg == "--config") {
+      o.config_file = value(i, arg);
+    } else if (arg == "--check-config") {
+      o.config_file = value(i, arg);
+      o.check_only = true;
+    } else if (arg == "--domain") {
+      const std::string text = value(i, arg);
+      char* end = nullptr;
+      const long domain = std::strtol(text.c_str(), &end, 10);
+      if (text.empty() || *end != '\0' || domain < 0 || domain > 232) {
+        throw ConfigError("--domain '" + text + "' is not allowed; expected an integer in [0, 232]");
+      }
+      o.domain = domain;
+    } else if (arg == "--plugin-dir") {
+      o.plugin_dirs.push_back(value(i, arg));
+    } else if (arg == "--log-level") {
+      const std::string level = value(i, arg);
+      parse_log_level(level);
+      o.log_level = level;
+    } else {
+      throw ConfigError("unknown option '" + arg + "' (see locd --help)");
+    }
+  }
+  if (o.config_file.empty()) throw ConfigError("no config given: use --config FILE or --check-config FILE (see locd --help)");
+  return o;
+}
+
+ServerConfig load_config(const Options& o) {
+  ServerConfig config = ServerConfig::load_file(o.config_file);
+  if (o.domain) config.domain_id = static_cast<int>(*o.domain);
+  for (const auto& dir : o.plugin_dirs) config.plugin_directories.push_back(fs::absolute(dir).lexically_normal());
+  if (o.log_level) config.log_level = parse_log_level(*o.log_level);
+  std::error_code ec;
+  for (const auto& dir : config.plugin_directories) {
+    if (!fs::is_directory(dir, ec)) throw ConfigError("plugin directory '" + dir.string() + "' does not exist");
+  }
+  for (const auto& dir : config.map_directories) {
+    if (!fs::is_directory(dir, ec)) throw ConfigError("map directory '" + dir.string() + "' does not exist");
+  }
+  return config;
+}
+
+// Configures every boot session's plugin once, as the server would, and releases it.
+void check_boot_sessions(const ServerConfig& config, const PluginCatalog& catalog) {
+  for (const auto& boot : config.sessions) {
+    PluginContext context;
+    context.robot_id = boot.robot_id;
+    context.limits = config.limits;
+    context.maps = MapResolver(config.map_directories);
+    try {
+      create_configured(catalog, boot.config.plugin, context, boot.config.params);
+    } catch (const std::exception& e) {
+      throw ConfigError("boot session for robot '" + boot.robot_id + "' (" + boot.source + "): " + e.what());
+    }
+  }
+}
+
+int check_config(const Options& o) {
+  try {
+    const ServerConfig config = load_config(o);
+    const PluginCatalog catalog(config.plugin_directories);
+    check_boot_sessions(config, catalog);
+    std::string plugins;
+    for (const auto& name : catalog.names()) plugins += (plugins.empty() ? "" : ", ") + name;
+    for (const auto& rejected : catalog.rejected()) std::cout << "warning: plugin refused: " << rejected << "\n";
+    std::cout << "OK: " << o.config_file << " (server " << config.server_id << ", domain " << config.domain_id
+              << ", plugins: " << (plugins.empty() ? "none" : plugins) << ", boot sessions: " << config.sessions.size()
+              << ")\n";
+    return 0;
+  } catch (const std::exception& e) {
+    std::cout << "error: " << o.config_file << ": " << e.what() << "\n";
+    return 1;
+  }
+}
+
+int run(const Options& o) {
+  Logger logger;
+  ServerConfig config;
+  try {
+    config = load_config(o);
+  } catch (const std::exception& e) {
+    logger.log(LogLevel::kError, "server", o.config_file + ": " + e.what());
+    return 1;
+  }
+  logger.set_level(config.log_level);
+  const std::string uri = dds::config_uri();
+  if (uri.empty()) {
+    logger.log(LogLevel::kWarning, "server",
+               "CYCLONEDDS_URI is unset: Cyclone DDS uses the machine's real network interface");
+  } else {
+    logger.log(LogLevel::kInfo, "server", "CYCLONEDDS_URI=" + uri);
+  }
+
+  if (pipe(signal_pipe) != 0) {
+    logger.log(LogLevel::kError, "server", std::string("pipe: ") + std::strerror(errno));
+    return 1;
+  }
+  struct sigaction action {};
+  action.sa_handler = on_signal;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+
+  const PluginCatalog catalog(config.plugin_directories);
+  for (const auto& name : catalog.names()) {
+    logger.log(LogLevel::kInfo, "server", "plugin " + name + " " + catalog.find(name)->descriptor().version + " from " +
+                                              catalog.find(name)->file().string());
+  }
+  for (const auto& rejected : catalog.rejected()) logger.log(LogLevel::kWarning, "server", "plugin refused: " + rejected);
+
+  try {
+    DdsBridge bridge(config.domain_id, config.server_id, config.limits, logger);
+    Server server(config, catalog, bridge, logger);
+    server.boot();
+    bridge.connect(server);
+    logger.log(LogLevel::kInfo, "server",
+               "locd " + config.server_id + " running on domain " + std::to_string(config.domain_id) + " with " +
+                   std::to_string(config.workers) + " workers, " + std::to_string(catalog.names().size()) + " plugins");
+
+    const int period_ms = static_cast<int>(std::lround(config.status_period_s * 1000.0));
+    for (;;) {
+      pollfd fd{signal_pipe[0], POLLIN, 0};
+      const int ready = poll(&fd, 1, period_ms);
+      if (ready > 0) break;
+      if (ready < 0 && errno != EINTR) {
+        logger.log(LogLevel::kError, "server", std::string("poll: ") + std::strerror(errno));
+        break;
+      }
+      if (ready == 0) server.publish_all_status();
+    }
+    logger.log(LogLevel::kInfo, "server", "shutting down: stopping readers, then workers");
+    bridge.disconnect();
+    server.shutdown();
+  } catch (const std::exception& e) {
+    logger.log(LogLevel::kError, "server", e.what());
+    return 1;
+  }
+  logger.log(LogLevel::kInfo, "server", "stopped");
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  try {
+    options = parse_arguments(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "locd: " << e.what() << "\n";
+    return 2;
+  }
+  return options.check_only ? check_config(options) : run(options);
+}

@@ -1,0 +1,247 @@
+#include "locd/server/server.hpp"
+
+#include "locd/dds/topics.hpp"
+
+namespace locd::server {
+namespace {
+
+constexpr auto kNoSessionReportPeriod = std::chrono::seconds(1);
+constexpr size_t kMaxUnservedRobots = 4096;  // bounds the memory a flood of robot ids can take
+
+}  // namespace
+
+Server::Server(ServerConfig config, const PluginCatalog& catalog, OutputSink& sink, Logger& logger)
+    : config_(std::move(config)), catalog_(catalog), sink_(sink), logger_(logger),
+      pool_(static_cast<size_t>(config_.workers)), started_ns_(wall_clock_ns()) {
+  pool_.on_task_error([this](const std::string& what) { logger_.log(LogLevel::kError, "server", "task failed: " + what); });
+}
+
+Server::~Server() { shutdown(); }
+
+void Server::shutdown() {
+  pool_.shutdown();
+  std::map<std::string, std::shared_ptr<Session>> sessions;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    sessions.swap(sessions_);
+  }
+  sessions.clear();
+}
+
+PluginContext Server::context_for(const std::string& robot_id) {
+  PluginContext context;
+  context.robot_id = robot_id;
+  context.limits = config_.limits;
+  context.maps = MapResolver(config_.map_directories);
+  Logger* logger = &logger_;
+  context.log = [logger, robot_id](LogLevel level, const std::string& message) { logger->log(level, robot_id, message); };
+  return context;
+}
+
+ServerInfoReport Server::info() const {
+  ServerInfoReport info;
+  info.server_id = config_.server_id;
+  info.started_ns = started_ns_;
+  for (const auto& name : catalog_.names()) {
+    const auto library = catalog_.find(name);
+    const auto& d = library->descriptor();
+    info.plugins.push_back({d.name, d.version ? d.version : "", d.description ? d.description : "",
+                            kind_names(d.consumes)});
+  }
+  info.rejected_plugins = catalog_.rejected();
+  return info;
+}
+
+void Server::boot() {
+  try {
+    sink_.publish_server_info(info());
+  } catch (const std::exception& e) {
+    logger_.log(LogLevel::kError, "server", std::string("server info not published: ") + e.what());
+  }
+  for (const auto& boot : config_.sessions) {
+    std::shared_ptr<Session> session;
+    uint64_t generation = 0;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      session = create_session_locked(boot.robot_id);
+      generation = session->begin_request(0);
+    }
+    if (boot.initial_pose) {
+      PoseEstimate pose;
+      pose.header = {wall_clock_ns(), "map"};
+      const auto& p = *boot.initial_pose;
+      pose.pose = Eigen::Translation3d(p[0], p[1], 0.0) * Eigen::AngleAxisd(p[2], Eigen::Vector3d::UnitZ());
+      session->set_pose(pose);
+    }
+    const BootSession copy = boot;
+    pool_.post([this, session, generation, copy] {
+      start_plugin(session, generation, 0, copy.config, copy.source);
+    });
+    logger_.log(LogLevel::kInfo, boot.robot_id, "boot session: plugin " + boot.config.plugin + " from " + boot.source);
+  }
+}
+
+std::shared_ptr<Session> Server::create_session_locked(const std::string& robot_id) {
+  auto& slot = sessions_[robot_id];
+  if (!slot) {
+    Logger* logger = &logger_;
+    slot = std::make_shared<Session>(robot_id, pool_, sink_, static_cast<size_t>(config_.queue_depth),
+                                     [logger, robot_id](LogLevel level, const std::string& message) {
+                                       logger->log(level, robot_id, message);
+                                     });
+    unserved_.erase(robot_id);
+  }
+  return slot;
+}
+
+std::shared_ptr<Session> Server::find(const std::string& robot_id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = sessions_.find(robot_id);
+  return it == sessions_.end() ? nullptr : it->second;
+}
+
+uint64_t Server::messages_without_session() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return messages_without_session_;
+}
+
+void Server::on_session_request(SessionRequestMessage request) {
+  if (request.robot_id.empty()) {
+    logger_.log(LogLevel::kWarning, "server", "session request " + std::to_string(request.request_id) +
+                                                  " ignored: robot_id is empty");
+    return;
+  }
+  if (request.stop) {
+    std::shared_ptr<Session> session;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      auto it = sessions_.find(request.robot_id);
+      if (it != sessions_.end()) {
+        session = it->second;
+        sessions_.erase(it);
+      }
+    }
+    if (session) {
+      session->stop(request.request_id, "stopped by request " + std::to_string(request.request_id));
+    } else {
+      SessionStatusReport status;
+      status.robot_id = request.robot_id;
+      status.stamp_ns = wall_clock_ns();
+      status.state = SessionState::kNoSession;
+      status.request_id = request.request_id;
+      status.request_ok = false;
+      status.message = "no session to stop for robot '" + request.robot_id + "'";
+      sink_.publish_status(status);
+    }
+    return;
+  }
+  std::shared_ptr<Session> session;
+  uint64_t generation = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    session = create_session_locked(request.robot_id);
+    generation = session->begin_request(request.request_id);
+  }
+  logger_.log(LogLevel::kInfo, request.robot_id, "session request " + std::to_string(request.request_id) +
+                                                     (request.plugin.empty() ? "" : " for plugin " + request.plugin));
+  pool_.post([this, session, generation, request = std::move(request)] { handle_start(session, generation, request); });
+}
+
+void Server::handle_start(const std::shared_ptr<Session>& session, uint64_t generation,
+                          const SessionRequestMessage& request) {
+  const std::string source =
+      "session request " + std::to_string(request.request_id) + " for robot '" + request.robot_id + "'";
+  PluginConfig config;
+  try {
+    if (!request.plugin.empty()) check_plugin_name(request.plugin, source);
+    config = split_plugin_config(request.config_yaml, source);
+    if (!request.plugin.empty() && request.plugin != config.plugin) {
+      throw ConfigError(source + ": plugin '" + request.plugin + "' differs from the config's plugin '" +
+                        config.plugin + "'; leave the request's plugin empty or make them equal");
+    }
+  } catch (const std::exception& e) {
+    if (!session->fail_request(generation, request.request_id, e.what())) abandon_if_failed(session, generation);
+    return;
+  }
+  start_plugin(session, generation, request.request_id, config, source);
+}
+
+void Server::start_plugin(const std::shared_ptr<Session>& session, uint64_t generation, uint64_t request_id,
+                          const PluginConfig& config, const std::string& source) {
+  try {
+    LocalizerPtr localizer = create_configured(catalog_, config.plugin, context_for(session->robot_id()), config.params);
+    const auto library = catalog_.find(config.plugin);
+    session->install(generation, request_id, std::move(localizer), config.plugin,
+                     "plugin " + config.plugin + " " + library->descriptor().version + " configured from " + source);
+  } catch (const std::exception& e) {
+    if (!session->fail_request(generation, request_id, e.what())) abandon_if_failed(session, generation);
+  }
+}
+
+void Server::abandon_if_failed(const std::shared_ptr<Session>& session, uint64_t generation) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = sessions_.find(session->robot_id());
+  if (it != sessions_.end() && it->second == session && session->abandon_if_idle(generation)) sessions_.erase(it);
+}
+
+void Server::on_measurement(const std::string& robot_id, Measurement measurement) {
+  const char* topic = topic_of(kind_of(measurement));
+  if (auto session = find(robot_id); session && session->push(std::move(measurement))) return;
+  report_no_session(robot_id, topic, "");
+}
+
+void Server::on_bad_input(const std::string& robot_id, const std::string& topic, const std::string& error) {
+  const std::string message = "rejected message on " + topic + ": " + error;
+  if (auto session = find(robot_id)) {
+    session->reject_input(message);
+    return;
+  }
+  report_no_session(robot_id, topic, " (it was malformed too: " + error + ")");
+}
+
+void Server::on_initial_pose(const std::string& robot_id, const PoseEstimate& pose) {
+  if (auto session = find(robot_id)) {
+    session->set_pose(pose);
+    return;
+  }
+  report_no_session(robot_id, topics::kInitialPose, "");
+}
+
+void Server::report_no_session(const std::string& robot_id, const std::string& topic, const std::string& detail) {
+  SessionStatusReport status;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++messages_without_session_;
+    if (unserved_.size() >= kMaxUnservedRobots && !unserved_.count(robot_id)) unserved_.clear();
+    auto& unserved = unserved_[robot_id];
+    ++unserved.count;
+    const auto now = std::chrono::steady_clock::now();
+    if (unserved.reported && now - unserved.last_report < kNoSessionReportPeriod) return;
+    unserved.reported = true;
+    unserved.last_report = now;
+    status.counters.received = unserved.count;
+    status.counters.rejected = unserved.count;
+  }
+  status.robot_id = robot_id;
+  status.stamp_ns = wall_clock_ns();
+  status.state = SessionState::kNoSession;
+  status.last_error = "no session for robot '" + robot_id + "': message on " + topic + " ignored" + detail +
+                      "; send a session request on " + topics::kSessionRequest + " first";
+  logger_.log(LogLevel::kWarning, robot_id.empty() ? "server" : robot_id, status.last_error);
+  try {
+    sink_.publish_status(status);
+  } catch (const std::exception& e) {
+    logger_.log(LogLevel::kError, "server", std::string("status not published: ") + e.what());
+  }
+}
+
+void Server::publish_all_status() {
+  std::vector<std::shared_ptr<Session>> sessions;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [_, s] : sessions_) sessions.push_back(s);
+  }
+  for (const auto& s : sessions) s->publish_status();
+}
+
+}  // namespace locd::server

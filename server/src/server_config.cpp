@@ -1,0 +1,142 @@
+#include "locd/server/server_config.hpp"
+
+#include <unistd.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "locd/server/log.hpp"
+
+namespace locd::server {
+namespace fs = std::filesystem;
+namespace {
+
+constexpr size_t kMaxRobotIdLength = 64;  // idl ROBOT_ID_MAX
+
+std::vector<fs::path> directories(const Params& params, const std::string& key, const fs::path& base) {
+  std::vector<fs::path> out;
+  if (!params.has(key)) return out;
+  const YAML::Node list = params.node()[key];
+  if (!list.IsSequence()) params.fail(key, "is not a list; expected a list of directories, e.g. [../build/plugins]");
+  for (size_t i = 0; i < list.size(); ++i) {
+    if (!list[i].IsScalar() || list[i].Scalar().empty()) {
+      params.fail(key, "entry " + std::to_string(i) + " is not a directory name; expected a list of directories");
+    }
+    const fs::path dir(list[i].Scalar());
+    out.push_back((dir.is_absolute() ? dir : base / dir).lexically_normal());
+  }
+  return out;
+}
+
+size_t limit(const Params& limits, const char* key, size_t default_value, long max) {
+  return static_cast<size_t>(limits.integer(key, static_cast<long>(default_value), 1, max));
+}
+
+BootSession boot_session(const Params& entry, const std::string& source_name, const fs::path& base) {
+  entry.expect_only({"robot_id", "plugin", "config_file", "config", "initial_pose"});
+  BootSession boot;
+  boot.robot_id = entry.required_text("robot_id");
+  if (boot.robot_id.empty() || boot.robot_id.size() > kMaxRobotIdLength) {
+    entry.fail("robot_id", "= '" + boot.robot_id + "' must have 1 to 64 characters");
+  }
+  const bool has_file = entry.has("config_file");
+  const bool has_inline = entry.has("config");
+  if (has_file == has_inline) {
+    entry.fail(has_file ? "config" : "robot_id",
+               "needs exactly one of 'config_file' (a file relative to the server config) or 'config' (an "
+               "inline map with 'plugin' and 'params')");
+  }
+  if (has_file) {
+    fs::path file(entry.required_text("config_file"));
+    if (!file.is_absolute()) file = base / file;
+    boot.source = file.lexically_normal().string();
+    boot.config = split_plugin_config(Params::load_file(boot.source), boot.source);
+  } else {
+    boot.source = source_name + " (sessions entry for robot '" + boot.robot_id + "', " + entry.where("config") + ")";
+    const YAML::Node inline_config = entry.node()["config"];
+    if (!inline_config.IsMap()) entry.fail("config", "is not a map; expected 'plugin: <name>' and 'params:'");
+    boot.config = split_plugin_config(Params(inline_config, entry.key_path("config")), boot.source);
+  }
+  const std::string plugin = entry.text("plugin", "");
+  if (!plugin.empty()) {
+    check_plugin_name(plugin, source_name + " (" + entry.where("plugin") + ")");
+    if (plugin != boot.config.plugin) {
+      entry.fail("plugin", "= '" + plugin + "' differs from the config's plugin '" + boot.config.plugin +
+                               "'; leave it out or make them equal");
+    }
+  }
+  if (entry.has("initial_pose")) {
+    const auto pose = entry.numbers("initial_pose", {}, 3);
+    boot.initial_pose = std::array<double, 3>{pose[0], pose[1], pose[2]};
+  }
+  return boot;
+}
+
+}  // namespace
+
+std::string default_server_id() {
+  char host[256] = {};
+  if (gethostname(host, sizeof host - 1) != 0) std::snprintf(host, sizeof host, "locd");
+  return std::string(host) + "-" + std::to_string(getpid());
+}
+
+ServerConfig ServerConfig::parse(const std::string& yaml_text, const std::string& source_name,
+                                 const fs::path& base_directory) {
+  const Params root = Params::parse(yaml_text, source_name);
+  root.expect_only({"server_id", "domain_id", "plugin_directories", "map_directories", "workers",
+                    "queue_depth", "status_period_s", "limits", "log_level", "sessions"});
+  ServerConfig c;
+  c.server_id = root.text("server_id", default_server_id());
+  if (c.server_id.empty() || c.server_id.size() > 64) {
+    root.fail("server_id", "= '" + c.server_id + "' must have 1 to 64 characters");
+  }
+  c.domain_id = static_cast<int>(root.integer("domain_id", 0, 0, 232));
+  c.plugin_directories = directories(root, "plugin_directories", base_directory);
+  c.map_directories = directories(root, "map_directories", base_directory);
+  c.workers = static_cast<int>(root.integer("workers", 2, 1, 64));
+  c.queue_depth = static_cast<int>(root.integer("queue_depth", 64, 1, 10000));
+  c.status_period_s = root.number("status_period_s", 1.0, Range::closed(0.05, 3600.0));
+  c.log_level = parse_log_level(root.text("log_level", "info", {"debug", "info", "warning", "error"}));
+
+  const Params limits = root.child("limits");
+  limits.expect_only({"max_scan_beams", "max_cloud_points", "max_image_pixels", "max_detections",
+                      "max_particles", "max_map_cells"});
+  // Upper ends: the IDL's sequence bounds for sensors, generous sanity bounds for the rest.
+  const Limits defaults;
+  c.limits.max_scan_beams = limit(limits, "max_scan_beams", defaults.max_scan_beams, 65536);
+  c.limits.max_cloud_points = limit(limits, "max_cloud_points", defaults.max_cloud_points, 4194304);
+  c.limits.max_image_pixels = limit(limits, "max_image_pixels", defaults.max_image_pixels, 33554432);
+  c.limits.max_detections = limit(limits, "max_detections", defaults.max_detections, 4096);
+  c.limits.max_particles = limit(limits, "max_particles", defaults.max_particles, 10'000'000);
+  c.limits.max_map_cells = limit(limits, "max_map_cells", defaults.max_map_cells, 1'000'000'000);
+
+  if (root.has("sessions")) {
+    const YAML::Node list = root.node()["sessions"];
+    if (!list.IsSequence()) root.fail("sessions", "is not a list; expected a list of {robot_id, config_file | config}");
+    for (size_t i = 0; i < list.size(); ++i) {
+      if (!list[i].IsMap()) {
+        root.fail("sessions", "entry " + std::to_string(i) + " is not a map; expected {robot_id, config_file | config}");
+      }
+      BootSession boot = boot_session(Params(list[i], "sessions[" + std::to_string(i) + "]"), source_name,
+                                      base_directory);
+      for (const auto& other : c.sessions) {
+        if (other.robot_id == boot.robot_id) {
+          root.fail("sessions", "names robot '" + boot.robot_id + "' twice; one session per robot");
+        }
+      }
+      c.sessions.push_back(std::move(boot));
+    }
+  }
+  return c;
+}
+
+ServerConfig ServerConfig::load_file(const fs::path& file) {
+  std::ifstream in(file);
+  if (!in) throw ConfigError("cannot read server config file '" + file.string() + "'");
+  std::stringstream text;
+  text << in.rdbuf();
+  const fs::path absolute = fs::absolute(file);
+  return parse(text.str(), file.string(), absolute.parent_path());
+}
+
+}  // namespace locd::server
