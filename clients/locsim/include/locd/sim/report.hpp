@@ -1,0 +1,20 @@
+// What `locsim` prints: one JSON object (--json) or a short human summary, and the plot.
+#pragma once
+
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "locd/sdk/feature_map.hpp"
+#include "locd/sim/offline_runner.hpp"
+
+namespace locd::sim {
+
+void write_json(std::ostream& out, const RunResult& result);
+void write_summary(std::ostream& out, const RunResult& result);
+
+// Draws the map's walls, the truth path (green), the estimates (red), the start, a scale bar and
+// a legend to a PNG (OpenCV). Throws std::runtime_error if the file cannot be written.
+void plot_run(const std::string& png_file, const FeatureMap2D& map, const RunResult& result);
+
+}  // namespace locd::sim

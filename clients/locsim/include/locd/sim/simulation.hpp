@@ -1,0 +1,53 @@
+// A running scenario: the truth trajectory and every sensor's measurements, merged in stamp
+// order. Each sensor draws from its own random stream (seed, sensor index), so adding a sensor
+// leaves the others' noise unchanged.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "locd/sim/scenario.hpp"
+#include "locd/sim/sensor_model.hpp"
+#include "locd/sim/trajectory.hpp"
+#include "locd/sim/world.hpp"
+
+namespace locd::sim {
+
+struct SimulatedMeasurement {
+  double t = 0.0;  // s since the start
+  std::string sensor;
+  Measurement measurement;
+};
+
+class Simulation {
+ public:
+  // stamp_origin_ns: the stamp of t = 0.
+  Simulation(const Scenario& scenario, uint64_t seed, double duration_s, int64_t stamp_origin_ns = 1'000'000'000);
+
+  // The next measurement in time order (ties: sensors in declaration order), nullopt at the end.
+  std::optional<SimulatedMeasurement> next();
+
+  const Trajectory& truth() const { return truth_; }
+  std::shared_ptr<const SegmentWorld> world() const { return world_; }
+  double duration() const { return duration_; }
+  int64_t stamp_of(double t) const;
+  double time_of(int64_t stamp_ns) const;
+  // The pose the localizer is given at the start: truth + initial_pose_offset, with covariance
+  // diag(initial_stddev^2) over (x, y, yaw).
+  PoseEstimate initial_pose() const;
+
+ private:
+  const Scenario& scenario_;
+  double duration_;
+  int64_t origin_ns_;
+  std::shared_ptr<const SegmentWorld> world_;
+  Trajectory truth_;
+  std::vector<std::unique_ptr<SensorModel>> sensors_;
+  std::vector<std::mt19937_64> random_;
+  std::vector<uint64_t> next_index_;
+};
+
+}  // namespace locd::sim

@@ -1,0 +1,39 @@
+// How much of a world's observable static surface the scans so far have seen. The reference is
+// what dense virtual scans from every free grid position would see (voxels of `voxel_size`
+// holding a static hit); a scan covers the reference voxels its static hits fall in. Moving
+// people count for neither.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <unordered_set>
+#include <vector>
+
+#include "locd/sim_icp_explorer/indoor_world.hpp"
+#include "locd/sim_icp_explorer/scanner3d.hpp"
+
+namespace locd::sim {
+
+class SurfaceCoverage {
+ public:
+  // Reference from virtual scans (reference_scanner, no noise) at every grid_step position whose
+  // footprint (robot_radius) is free and that is reachable by 4-connected steps from `start`.
+  SurfaceCoverage(const IndoorWorld& world, const Scanner3DConfig& reference_scanner, double voxel_size,
+                  double grid_step, double robot_radius, const Eigen::Vector2d& start);
+
+  void add(const SimulatedScan& scan, const IndoorWorld& world);
+  double ratio() const;  // covered reference voxels / reference voxels
+  size_t reference_voxels() const { return reference_.size(); }
+  size_t covered_voxels() const { return covered_.size(); }
+  // The free, reachable grid positions the reference was built from.
+  const std::vector<Eigen::Vector2d>& reachable_positions() const { return positions_; }
+
+ private:
+  int64_t key(const Eigen::Vector3f& p) const;
+  double voxel_size_;
+  std::unordered_set<int64_t> reference_;
+  std::unordered_set<int64_t> covered_;
+  std::vector<Eigen::Vector2d> positions_;
+};
+
+}  // namespace locd::sim

@@ -1,0 +1,162 @@
+#include "live.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <thread>
+#include <type_traits>
+#include <variant>
+
+#include "locd/client/client.hpp"
+#include "locd/sim/report.hpp"
+#include "locd/sim/simulation.hpp"
+
+namespace locd::sim {
+
+namespace {
+
+int64_t wall_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+struct Published {
+  double t = 0.0;
+  Pose2 truth;
+  int64_t publish_wall_ns = 0;
+};
+
+}  // namespace
+
+int run_live(const Scenario& scenario, const LiveOptions& options) {
+  std::ostream& log = options.json ? std::cerr : std::cout;
+  RunResult result;
+  result.plugin = scenario.localizer.plugin;
+  result.scenario = scenario.name;
+  result.robot_id = scenario.robot.id;
+  result.seed = options.seed.value_or(scenario.seed);
+  result.duration_s = options.duration_s.value_or(scenario.duration_s);
+
+  Client client(ClientOptions{options.domain_id, scenario.robot.id, 8});
+  const auto timeout = std::chrono::milliseconds(static_cast<int64_t>(options.server_timeout_s * 1000));
+  if (!client.wait_for_server(timeout)) {
+    std::cerr << "locsim: no locd server answered on DDS domain " << options.domain_id << " within "
+              << options.server_timeout_s << " s (is locd running with the same CYCLONEDDS_URI and domain?)\n";
+    return 2;
+  }
+
+  std::mutex mutex;
+  std::vector<PoseUpdate> received;
+  client.on_pose(
+      [&](const PoseUpdate& p) {
+        std::lock_guard<std::mutex> lock(mutex);
+        received.push_back(p);
+      },
+      scenario.robot.id);
+
+  const auto status = client.request_session(scenario.localizer.plugin, scenario.localizer.config_text, timeout);
+  if (!status) {
+    std::cerr << "locsim: the server did not answer the session request for robot '" << scenario.robot.id
+              << "' (plugin " << scenario.localizer.plugin << ") within " << options.server_timeout_s << " s\n";
+    return 2;
+  }
+  if (!status->request_ok) {
+    std::cerr << "locsim: the server refused the session for robot '" << scenario.robot.id << "': " << status->message
+              << "\n";
+    return 2;
+  }
+
+  Simulation simulation(scenario, result.seed, result.duration_s, 0);
+  PoseEstimate initial = simulation.initial_pose();
+  initial.header.stamp_ns = wall_ns();
+  client.set_initial_pose(initial);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+
+  std::map<int64_t, Published> published;  // by stamp
+  TrajectoryEvaluator evaluator(scenario.convergence_threshold_m);
+  auto score_received = [&]() {
+    std::vector<PoseUpdate> batch;
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      batch.swap(received);
+    }
+    for (const auto& p : batch) {
+      const auto it = published.find(p.estimate.header.stamp_ns);
+      if (it == published.end()) continue;  // a pose for a stamp this run never published
+      const double latency_ms = static_cast<double>(p.received_wall_ns - it->second.publish_wall_ns) * 1e-6;
+      evaluator.add(it->second.t, Pose2::from_isometry(p.estimate.pose), it->second.truth, p.update_ms, latency_ms);
+    }
+  };
+  auto print_line = [&](double t) {
+    const auto& scored = evaluator.estimates();
+    char line[256];
+    if (scored.empty()) {
+      std::snprintf(line, sizeof(line), "t=%.1fs robot=%s plugin=%s poses=0", t, scenario.robot.id.c_str(),
+                    scenario.localizer.plugin.c_str());
+    } else {
+      const ScoredEstimate& last = scored.back();
+      std::snprintf(line, sizeof(line), "t=%.1fs robot=%s plugin=%s error=%.3fm update=%.2fms latency=%.2fms poses=%zu",
+                    t, scenario.robot.id.c_str(), scenario.localizer.plugin.c_str(), last.position_error_m,
+                    last.update_ms, last.latency_ms.value_or(0.0), scored.size());
+    }
+    log << line << std::endl;
+  };
+
+  const auto wall_start = std::chrono::steady_clock::now();
+  double next_print = 1.0;
+  while (auto m = simulation.next()) {
+    const auto due = wall_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                      std::chrono::duration<double>(m->t / options.rate));
+    std::this_thread::sleep_until(due);
+    const int64_t stamp = wall_ns();
+    const Pose2 truth = simulation.truth().at(m->t).pose;
+    std::visit([&](auto& value) { value.header.stamp_ns = stamp; }, m->measurement);
+    published[stamp] = Published{m->t, truth, stamp};
+    ++result.measurements;
+    std::visit(
+        [&](const auto& value) {
+          using T = std::decay_t<decltype(value)>;
+          if constexpr (std::is_same_v<T, Odometry>) {
+            PoseEstimate truth_pose;
+            truth_pose.header.stamp_ns = stamp;
+            truth_pose.header.frame_id = "map";
+            truth_pose.pose = truth.to_isometry();
+            truth_pose.covariance = Matrix6d::Zero();
+            client.publish_ground_truth(truth_pose);
+          }
+          client.publish(value);
+        },
+        m->measurement);
+    if (m->t >= next_print) {
+      score_received();
+      print_line(m->t);
+      next_print += 1.0;
+    }
+  }
+  // Poses still in flight.
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  score_received();
+
+  result.summary = evaluator.summary();
+  result.estimates = evaluator.estimates();
+  for (const auto& s : simulation.truth().samples()) result.truth_path.push_back(s.pose);
+  if (result.summary.updates == 0) {
+    std::cerr << "locsim: no pose received from the server for robot '" << scenario.robot.id
+              << "' (see `locctl status " << scenario.robot.id << "`)\n";
+    return 1;
+  }
+  if (options.json) {
+    write_json(std::cout, result);
+  } else {
+    write_summary(std::cout, result);
+  }
+  if (!options.plot_file.empty()) {
+    plot_run(options.plot_file, scenario.map, result);
+    log << "plot: " << options.plot_file << std::endl;
+  }
+  return 0;
+}
+
+}  // namespace locd::sim

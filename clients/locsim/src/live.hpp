@@ -1,0 +1,25 @@
+// `locsim live`: the scenario in real time against a running locd over DDS.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "locd/sim/scenario.hpp"
+
+namespace locd::sim {
+
+struct LiveOptions {
+  uint32_t domain_id = 0;
+  double rate = 1.0;  // sim seconds per wall second
+  std::optional<uint64_t> seed;
+  std::optional<double> duration_s;
+  bool json = false;
+  std::string plot_file;
+  double server_timeout_s = 10.0;
+};
+
+// Returns the process exit code; prints progress to stderr (json) or stdout.
+int run_live(const Scenario& scenario, const LiveOptions& options);
+
+}  // namespace locd::sim

@@ -1,0 +1,136 @@
+// locsim: simulated robots for locd. `run` drives a scenario offline straight through a plugin;
+// `live` publishes it in real time to a running locd over DDS. Both score the estimates.
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "live.hpp"
+#include "locd/sim/offline_runner.hpp"
+#include "locd/sim/report.hpp"
+#include "locd/sim/scenario.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const char* kUsage =
+    "usage:\n"
+    "  locsim run SCENARIO.yaml [--json] [--plot FILE.png] [--plugin-dir DIR] [--seed N] [--duration S]\n"
+    "      offline: the scenario straight through the plugin, no DDS\n"
+    "  locsim live SCENARIO.yaml [--domain N] [--rate X] [--duration S] [--seed N] [--json] [--plot FILE.png]\n"
+    "      real time against a running locd (DDS through CYCLONEDDS_URI)\n"
+    "  locsim --help\n"
+    "Plugin directory for run: --plugin-dir, else $LOCD_PLUGIN_DIR, else <locsim's dir>/../plugins.\n";
+
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+double parse_number(const std::string& option, const std::string& text, double min, double max) {
+  try {
+    size_t used = 0;
+    const double v = std::stod(text, &used);
+    if (used == text.size() && v >= min && v <= max) return v;
+  } catch (const std::exception&) {
+  }
+  throw UsageError(option + " " + text + ": expected a number in [" + std::to_string(min) + ", " +
+                   std::to_string(max) + "]");
+}
+
+uint64_t parse_unsigned(const std::string& option, const std::string& text, uint64_t max) {
+  try {
+    size_t used = 0;
+    const unsigned long long v = std::stoull(text, &used);
+    if (used == text.size() && text[0] != '-' && v <= max) return v;
+  } catch (const std::exception&) {
+  }
+  throw UsageError(option + " " + text + ": expected an integer in [0, " + std::to_string(max) + "]");
+}
+
+fs::path default_plugin_directory() {
+  if (const char* env = std::getenv("LOCD_PLUGIN_DIR"); env && *env) return env;
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) return "plugins";
+  return self.parent_path() / ".." / "plugins";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  if (args.empty() || args[0] == "--help" || args[0] == "-h") {
+    (args.empty() ? std::cerr : std::cout) << kUsage;
+    return args.empty() ? 2 : 0;
+  }
+  try {
+    const std::string mode = args[0];
+    if (mode != "run" && mode != "live") throw UsageError("unknown command '" + mode + "'; known: run, live");
+    std::string scenario_file, plot_file;
+    bool json = false;
+    std::optional<uint64_t> seed;
+    std::optional<double> duration;
+    std::vector<fs::path> plugin_directories;
+    locd::sim::LiveOptions live;
+    for (size_t i = 1; i < args.size(); ++i) {
+      const std::string& a = args[i];
+      auto value = [&]() -> std::string {
+        if (i + 1 >= args.size()) throw UsageError(a + " needs a value");
+        return args[++i];
+      };
+      if (a == "--json") {
+        json = true;
+      } else if (a == "--plot") {
+        plot_file = value();
+      } else if (a == "--seed") {
+        seed = parse_unsigned(a, value(), std::numeric_limits<long>::max());
+      } else if (a == "--duration") {
+        duration = parse_number(a, value(), 1e-3, 86400.0);
+      } else if (a == "--plugin-dir" && mode == "run") {
+        plugin_directories.push_back(value());
+      } else if (a == "--domain" && mode == "live") {
+        live.domain_id = static_cast<uint32_t>(parse_unsigned(a, value(), 232));
+      } else if (a == "--rate" && mode == "live") {
+        live.rate = parse_number(a, value(), 0.01, 100.0);
+      } else if (a == "--help" || a == "-h") {
+        std::cout << kUsage;
+        return 0;
+      } else if (!a.empty() && a[0] != '-' && scenario_file.empty()) {
+        scenario_file = a;
+      } else {
+        throw UsageError("unknown option '" + a + "' for locsim " + mode);
+      }
+    }
+    if (scenario_file.empty()) throw UsageError("locsim " + mode + " needs a SCENARIO.yaml");
+    const locd::sim::Scenario scenario = locd::sim::load_scenario(scenario_file);
+
+    if (mode == "live") {
+      live.seed = seed;
+      live.duration_s = duration;
+      live.json = json;
+      live.plot_file = plot_file;
+      return locd::sim::run_live(scenario, live);
+    }
+    if (plugin_directories.empty()) plugin_directories.push_back(default_plugin_directory());
+    locd::sim::OfflineRunOptions options{plugin_directories, seed, duration};
+    const locd::sim::RunResult result = locd::sim::run_offline(scenario, options);
+    if (json) {
+      locd::sim::write_json(std::cout, result);
+    } else {
+      locd::sim::write_summary(std::cout, result);
+    }
+    if (!plot_file.empty()) {
+      locd::sim::plot_run(plot_file, scenario.map, result);
+      (json ? std::cerr : std::cout) << "plot: " << plot_file << "\n";
+    }
+    return result.summary.updates > 0 ? 0 : 1;
+  } catch (const UsageError& e) {
+    std::cerr << "locsim: " << e.what() << "\n" << kUsage;
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "locsim: " << e.what() << "\n";
+    return 1;
+  }
+}

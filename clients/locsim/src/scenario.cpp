@@ -1,0 +1,142 @@
+#include "locd/sim/scenario.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "locd/sdk/plugin.hpp"
+
+namespace locd::sim {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string read_text(const fs::path& file, const std::string& what) {
+  std::ifstream in(file);
+  if (!in) throw ConfigError("cannot read " + what + " '" + file.string() + "'");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+Pose2 pose_of(const Params& p, const std::string& key, const Pose2& fallback) {
+  const auto v = p.numbers(key, {fallback.x, fallback.y, fallback.theta}, 3);
+  return {v[0], v[1], v[2]};
+}
+
+RobotSpec parse_robot(const Params& p) {
+  p.expect_only({"id", "start", "max_speed", "max_yaw_rate", "max_acceleration", "lookahead", "waypoints",
+                 "loop"});
+  RobotSpec r;
+  r.id = p.required_text("id");
+  if (r.id.empty()) p.fail("id", "is empty; expected a robot name");
+  r.start = pose_of(p, "start", {});
+  r.max_speed = p.number("max_speed", r.max_speed, Range{0.0, 10.0, true, false});
+  r.max_yaw_rate = p.number("max_yaw_rate", r.max_yaw_rate, Range{0.0, 10.0, true, false});
+  r.max_acceleration = p.number("max_acceleration", r.max_acceleration, Range{0.0, 20.0, true, false});
+  r.lookahead = p.number("lookahead", r.lookahead, Range{0.1, 10.0, false, false});
+  r.loop = p.flag("loop", true);
+  const YAML::Node list = p.node()["waypoints"];
+  if (!list || !list.IsSequence() || list.size() < 2) {
+    p.fail("waypoints", "needs a list of at least 2 points [[x, y], ...]");
+  }
+  for (size_t i = 0; i < list.size(); ++i) {
+    const YAML::Node n = list[i];
+    double x = 0, y = 0;
+    if (!n.IsSequence() || n.size() != 2 || !YAML::convert<double>::decode(n[0], x) ||
+        !YAML::convert<double>::decode(n[1], y) || !std::isfinite(x) || !std::isfinite(y)) {
+      p.fail("waypoints", "entry " + std::to_string(i) + " is not a point [x, y] of two finite numbers");
+    }
+    if (!r.waypoints.empty() && (Eigen::Vector2d(x, y) - r.waypoints.back()).norm() < 1e-3) {
+      p.fail("waypoints", "entry " + std::to_string(i) + " repeats the previous point");
+    }
+    r.waypoints.emplace_back(x, y);
+  }
+  return r;
+}
+
+}  // namespace
+
+PluginConfig parse_plugin_config(const std::string& text, const std::string& source) {
+  const Params root = Params::parse(text, source);
+  try {
+    root.expect_only({"plugin", "params"});
+  } catch (const ConfigError& e) {
+    throw ConfigError(source + ": " + e.what());
+  }
+  PluginConfig config;
+  config.plugin = root.required_text("plugin");
+  const Params params = root.child("params");
+  config.params = Params(params.node(), config.plugin);
+  return config;
+}
+
+Scenario parse_scenario(const std::string& text, const std::string& source, const fs::path& base_directory) {
+  const Params p = Params::parse(text, source);
+  p.expect_only({"name", "seed", "duration_s", "map", "map_directories", "robot", "sensors", "localizer",
+                 "evaluation"});
+  Scenario s;
+  s.file = source;
+  s.name = p.required_text("name");
+  s.seed = static_cast<uint64_t>(p.integer("seed", 1, 0, std::numeric_limits<long>::max()));
+  s.duration_s = p.number("duration_s", s.duration_s, Range{0.0, 86400.0, true, false});
+
+  s.map_name = p.required_text("map");
+  std::vector<std::string> directories{"../maps"};
+  if (p.has("map_directories")) {
+    const YAML::Node list = p.node()["map_directories"];
+    if (!list.IsSequence() || list.size() == 0) p.fail("map_directories", "is not a non-empty list of directories");
+    directories.clear();
+    for (size_t i = 0; i < list.size(); ++i) {
+      if (!list[i].IsScalar()) p.fail("map_directories", "entry " + std::to_string(i) + " is not a directory name");
+      directories.push_back(list[i].Scalar());
+    }
+  }
+  for (const auto& d : directories) {
+    const fs::path dir(d);
+    s.map_directories.push_back(dir.is_absolute() ? dir : base_directory / dir);
+  }
+  try {
+    s.map_file = MapResolver(s.map_directories).resolve(s.map_name);
+  } catch (const ConfigError& e) {
+    p.fail("map", std::string("cannot be used: ") + e.what());
+  }
+  s.map = load_feature_map(s.map_file.string(), 100000);
+
+  if (!p.has("robot")) p.fail("robot", "is missing; expected {id, start, waypoints, ...}");
+  s.robot = parse_robot(p.child("robot"));
+  if (!p.has("sensors")) p.fail("sensors", "is missing; expected a map of sensors (laser, odometry)");
+  s.sensors = p.child("sensors");
+
+  if (!p.has("localizer")) p.fail("localizer", "is missing; expected {config_file, initial_pose_offset, initial_stddev}");
+  const Params loc = p.child("localizer");
+  loc.expect_only({"config_file", "initial_pose_offset", "initial_stddev"});
+  const fs::path config_file(loc.required_text("config_file"));
+  s.localizer.config_file = config_file.is_absolute() ? config_file : base_directory / config_file;
+  try {
+    s.localizer.config_text = read_text(s.localizer.config_file, "localizer config");
+  } catch (const ConfigError& e) {
+    loc.fail("config_file", std::string("cannot be used: ") + e.what());
+  }
+  const PluginConfig plugin = parse_plugin_config(s.localizer.config_text, s.localizer.config_file.string());
+  s.localizer.plugin = plugin.plugin;
+  s.localizer.params = plugin.params;
+  s.localizer.initial_pose_offset = pose_of(loc, "initial_pose_offset", {});
+  const auto stddev = loc.numbers("initial_stddev", {0.5, 0.5, 0.1}, 3, Range::positive());
+  s.localizer.initial_stddev = Eigen::Vector3d(stddev[0], stddev[1], stddev[2]);
+
+  const Params evaluation = p.child("evaluation");
+  evaluation.expect_only({"convergence_threshold_m"});
+  s.convergence_threshold_m = evaluation.number("convergence_threshold_m", 0.2, Range::positive());
+  return s;
+}
+
+Scenario load_scenario(const fs::path& file) {
+  const std::string text = read_text(file, "scenario");
+  fs::path base = file.parent_path();
+  if (base.empty()) base = ".";
+  return parse_scenario(text, file.string(), base);
+}
+
+}  // namespace locd::sim

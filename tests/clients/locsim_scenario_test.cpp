@@ -1,0 +1,125 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "locd/sim/scenario.hpp"
+#include "locd/sim/simulation.hpp"
+#include "test_env.hpp"
+
+namespace fs = std::filesystem;
+using locd::ConfigError;
+using locd::sim::parse_scenario;
+
+namespace {
+
+// A scratch tree: <tmp>/maps/corridor.yaml, <tmp>/plugins/ekf.yaml, scenarios parsed from <tmp>/scenarios.
+class ScenarioFiles : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::random_device random;
+    root_ = fs::temp_directory_path() / ("locsim_scenario_" + std::to_string(random()));
+    fs::create_directories(root_ / "maps");
+    fs::create_directories(root_ / "plugins");
+    fs::create_directories(root_ / "scenarios");
+    fs::copy_file(locd::test::source_dir() + "/config/maps/corridor.yaml", root_ / "maps" / "corridor.yaml");
+    std::ofstream(root_ / "plugins" / "ekf.yaml") << "plugin: feature_ekf\nparams:\n  map: corridor.yaml\n";
+  }
+  void TearDown() override { fs::remove_all(root_); }
+
+  std::string scenario(const std::string& robot_extra = "", const std::string& top_extra = "",
+                       const std::string& map = "corridor.yaml") const {
+    return "name: test\nseed: 3\nduration_s: 5\nmap: " + map + "\n" + top_extra +
+           "robot:\n  id: bot\n  start: [3, 1, 0]\n  waypoints: [[1, 1], [39, 1]]\n" + robot_extra +
+           "sensors:\n  odometry: {rate_hz: 50}\n  laser: {rate_hz: 25}\n"
+           "localizer:\n  config_file: ../plugins/ekf.yaml\n  initial_pose_offset: [0.1, 0, 0]\n";
+  }
+  std::string error_of(const std::string& text) const {
+    try {
+      const auto s = parse_scenario(text, "test.yaml", root_ / "scenarios");
+      locd::sim::Simulation simulation(s, s.seed, s.duration_s);  // validates the sensors
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "";
+  }
+  fs::path root_;
+};
+
+}  // namespace
+
+TEST_F(ScenarioFiles, ParsesAValidScenario) {
+  const auto s = parse_scenario(scenario(), "test.yaml", root_ / "scenarios");
+  EXPECT_EQ(s.name, "test");
+  EXPECT_EQ(s.seed, 3u);
+  EXPECT_EQ(s.robot.id, "bot");
+  EXPECT_EQ(s.robot.waypoints.size(), 2u);
+  EXPECT_EQ(s.localizer.plugin, "feature_ekf");
+  EXPECT_EQ(s.localizer.params.path(), "feature_ekf");
+  EXPECT_EQ(s.localizer.params.required_text("map"), "corridor.yaml");
+  EXPECT_EQ(fs::canonical(s.map_file), fs::canonical(root_ / "maps" / "corridor.yaml"));
+  EXPECT_GT(s.map.lines.size(), 40u);
+  EXPECT_DOUBLE_EQ(s.localizer.initial_pose_offset.x, 0.1);
+  EXPECT_EQ(error_of(scenario()), "");
+}
+
+TEST_F(ScenarioFiles, ErrorsNameTheKey) {
+  EXPECT_NE(error_of(scenario("  max_speed: 50\n")).find("'robot.max_speed'"), std::string::npos);
+  EXPECT_NE(error_of(scenario("  max_speed: 50\n")).find("allowed: (0, 10]"), std::string::npos);
+  EXPECT_NE(error_of(scenario("  waypoints_typo: 1\n")).find("unknown parameter 'robot.waypoints_typo'"),
+            std::string::npos);
+  EXPECT_NE(error_of(scenario("", "colour: red\n")).find("unknown parameter 'colour'"), std::string::npos);
+  EXPECT_NE(error_of(scenario("", "", "../maps/corridor.yaml")).find("parameter 'map'"), std::string::npos);
+  EXPECT_NE(error_of(scenario("", "", "../maps/corridor.yaml")).find("'..'"), std::string::npos);
+  EXPECT_NE(error_of(scenario("", "", "nowhere.yaml")).find("parameter 'map'"), std::string::npos);
+
+  std::string text = scenario();
+  text.replace(text.find("laser: {rate_hz: 25}"), 20, "laser: {beams: 1}");
+  EXPECT_NE(error_of(text).find("'sensors.laser.beams'"), std::string::npos) << error_of(text);
+  text = scenario();
+  text.replace(text.find("laser: {rate_hz: 25}"), 20, "sonar: {rate_hz: 5}");
+  EXPECT_NE(error_of(text).find("unknown parameter 'sensors.sonar'"), std::string::npos) << error_of(text);
+  text = scenario();
+  text.replace(text.find("odometry: {rate_hz: 50}"), 23, "odometry: {drift: {translation_fraction: -1}}");
+  EXPECT_NE(error_of(text).find("'sensors.odometry.drift.translation_fraction'"), std::string::npos) << error_of(text);
+  text = scenario();
+  text.replace(text.find("[0.1, 0, 0]"), 11, "[0.1, 0]");
+  EXPECT_NE(error_of(text).find("'localizer.initial_pose_offset'"), std::string::npos) << error_of(text);
+  text = scenario();
+  text.replace(text.find("ekf.yaml"), 8, "missing.yaml");
+  EXPECT_NE(error_of(text).find("'localizer.config_file'"), std::string::npos) << error_of(text);
+  text = scenario();
+  text.replace(text.find("id: bot"), 7, "id: [1]");
+  EXPECT_NE(error_of(text).find("'robot.id'"), std::string::npos) << error_of(text);
+  EXPECT_NE(error_of("name: x\nrobot: [\n").find("line"), std::string::npos);
+}
+
+TEST_F(ScenarioFiles, PluginConfigRejectsUnknownTopLevelKeys) {
+  try {
+    locd::sim::parse_plugin_config("plugin: feature_ekf\nparameters: {}\n", "ekf.yaml");
+    FAIL() << "accepted an unknown key";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown parameter 'parameters'"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(ScenarioFiles, SimulationStreamsInStampOrderAtTheConfiguredRates) {
+  const auto s = parse_scenario(scenario(), "test.yaml", root_ / "scenarios");
+  locd::sim::Simulation simulation(s, s.seed, 2.0);
+  int64_t last = -1;
+  int odometry = 0, scans = 0;
+  while (auto m = simulation.next()) {
+    const int64_t stamp = locd::header_of(m->measurement).stamp_ns;
+    ASSERT_GE(stamp, last);
+    EXPECT_EQ(stamp, simulation.stamp_of(m->t));
+    last = stamp;
+    odometry += std::holds_alternative<locd::Odometry>(m->measurement);
+    scans += std::holds_alternative<locd::LaserScan>(m->measurement);
+  }
+  EXPECT_EQ(odometry, 101);
+  EXPECT_EQ(scans, 51);
+  const auto initial = simulation.initial_pose();
+  EXPECT_NEAR(initial.pose.translation().x(), 3.1, 1e-12);
+  EXPECT_NEAR(initial.covariance(0, 0), 0.25, 1e-12);
+}
