@@ -72,6 +72,11 @@ class Localizer {
 
   // Outputs to publish once after configure (maps: transient-local), e.g. the landmark map.
   virtual UpdateResult initial_outputs() const { return {}; }
+
+  // Saves the plugin's map on request into the directory named by the plugin's own config, under
+  // a file name the plugin generates (never a path from a request); returns the file written.
+  // Plugins that keep no map leave this default, which rejects the request.
+  virtual std::string save_map() { throw InputError("this plugin keeps no map to save"); }
 };
 
 constexpr uint32_t kinds() { return 0; }

@@ -143,6 +143,15 @@ struct Diagnostics {
   bool empty() const { return values.empty() && particles.empty() && associations.empty(); }
 };
 
+// Where a plugin that explores wants the robot to go next (map frame; heading = the direction
+// of travel), or done = nothing left worth scanning. score is the plugin's own utility.
+struct ExplorationGoal {
+  Header header;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  double score = 0.0;
+  bool done = false;
+};
+
 // What one update returns. A plugin sets estimate when it has a pose to publish
 // (e.g. a filter that only predicted on odometry may leave it empty to save bandwidth).
 struct UpdateResult {
@@ -151,6 +160,7 @@ struct UpdateResult {
   std::optional<GridLayer> grid;                 // belief, elevation, ...
   std::optional<PointCloud> map_cloud;           // registered map, map frame
   std::optional<std::vector<MapFeature>> landmark_map;
+  std::optional<ExplorationGoal> exploration_goal;  // exploring plugins only
 };
 
 }  // namespace locd
