@@ -124,6 +124,11 @@ struct Client::Impl {
     pose_reader = {};
   }
 
+  void note_written(dds_entity_t writer) {
+    std::lock_guard<std::mutex> lock(mutex);
+    written_writers.insert(writer);
+  }
+
   void require_robot(const char* what) const {
     if (options.robot_id.empty()) {
       throw std::logic_error(std::string(what) + " needs a robot: ClientOptions::robot_id is empty");
@@ -212,6 +217,7 @@ struct Client::Impl {
     pending_requests.insert(id);
     lock.unlock();
     try {
+      note_written(session_request.handle());
       session_request.write(*request);
     } catch (...) {
       lock.lock();
@@ -244,6 +250,7 @@ struct Client::Impl {
   std::map<std::string, SessionStatus> latest_status;  // by robot_id
   std::map<std::string, ServerInfo> servers;           // by server_id
   std::set<uint64_t> pending_requests;
+  std::set<dds_entity_t> written_writers;  // for wait_for_delivery
   std::map<uint64_t, SessionStatus> answers;  // by request_id, for pending requests only
   std::vector<Subscription<std::function<void(const PoseUpdate&)>>> pose_subscribers;
   std::vector<Subscription<std::function<void(const SessionStatus&)>>> status_subscribers;
@@ -260,18 +267,22 @@ const std::string& Client::robot_id() const { return impl_->options.robot_id; }
 
 void Client::publish(const Odometry& m) {
   impl_->require_robot("publish(Odometry)");
+  impl_->note_written(impl_->odometry.handle());
   dds::write(impl_->odometry, impl_->options.robot_id, m);
 }
 void Client::publish(const Imu& m) {
   impl_->require_robot("publish(Imu)");
+  impl_->note_written(impl_->imu.handle());
   dds::write(impl_->imu, impl_->options.robot_id, m);
 }
 void Client::publish(const LaserScan& m) {
   impl_->require_robot("publish(LaserScan)");
+  impl_->note_written(impl_->scan.handle());
   dds::write(impl_->scan, impl_->options.robot_id, m);
 }
 void Client::publish(const PointCloud& m) {
   impl_->require_robot("publish(PointCloud)");
+  impl_->note_written(impl_->cloud.handle());
   dds::write(impl_->cloud, impl_->options.robot_id, m);
 }
 void Client::publish(const Image& m) {
@@ -284,14 +295,17 @@ void Client::publish(const Image& m) {
     throw std::invalid_argument("image data is " + std::to_string(m.data.size()) + " bytes; width * height * channels = " +
                                 std::to_string(static_cast<long long>(m.width) * m.height * m.channels));
   }
+  impl_->note_written(impl_->image.handle());
   dds::write(impl_->image, impl_->options.robot_id, m);
 }
 void Client::publish(const LandmarkDetections& m) {
   impl_->require_robot("publish(LandmarkDetections)");
+  impl_->note_written(impl_->detections.handle());
   dds::write(impl_->detections, impl_->options.robot_id, m);
 }
 void Client::publish_ground_truth(const PoseEstimate& truth) {
   impl_->require_robot("publish_ground_truth");
+  impl_->note_written(impl_->ground_truth.handle());
   dds::write(impl_->ground_truth, impl_->options.robot_id, truth, "ground_truth");
 }
 
@@ -306,6 +320,7 @@ std::optional<SessionStatus> Client::stop_session(std::chrono::milliseconds time
 
 void Client::set_initial_pose(const PoseEstimate& pose) {
   impl_->require_robot("set_initial_pose");
+  impl_->note_written(impl_->initial_pose.handle());
   dds::write(impl_->initial_pose, impl_->options.robot_id, pose);
 }
 
@@ -316,7 +331,12 @@ bool Client::wait_for_server(std::chrono::milliseconds timeout) {
 
 bool Client::wait_for_delivery(std::chrono::milliseconds timeout) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
-  for (const dds_entity_t writer : {impl_->session_request.handle(), impl_->initial_pose.handle()}) {
+  std::set<dds_entity_t> writers;
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    writers = impl_->written_writers;
+  }
+  for (const dds_entity_t writer : writers) {
     dds_publication_matched_status_t matched{};
     for (;;) {
       dds::check(dds_get_publication_matched_status(writer, &matched), "publication matched status");

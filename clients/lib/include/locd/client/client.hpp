@@ -89,9 +89,9 @@ class Client {
   // Waits until a locd server is discovered (its ServerInfo is received). False on timeout.
   bool wait_for_server(std::chrono::milliseconds timeout);
 
-  // Waits until the session-request and initial-pose writers are matched by at least one reader
-  // and every matched reader acknowledged what was written (call before a short-lived program
-  // exits after set_initial_pose). False on timeout.
+  // Waits until every topic this client has written to has at least one matched reader and
+  // every matched reader acknowledged what was written (call before a short-lived program exits,
+  // e.g. after set_initial_pose). False on timeout.
   bool wait_for_delivery(std::chrono::milliseconds timeout);
 
   // Callbacks run on a DDS listener thread: copy what you need and return quickly.
