@@ -1,0 +1,77 @@
+// The robot's own elevation map (paper section II), built in the odometry frame from tilted 2D
+// laser scans (eq. 1-5) or 3D point clouds, with the max-height update of eq. 5.
+//
+// Beyond the paper: the grid scrolls with the robot (fixed size, recentred when the robot comes
+// near an edge), and a cell not refreshed within `memory_distance_m` of travel is forgotten, so
+// odometry drift does not pile old, misplaced heights under the robot's current EMOI disk.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "locd/emoi_markov/emoi.hpp"
+#include "locd/sdk/types.hpp"
+
+namespace locd::emoi {
+
+// Eq. 1-2: the laser frame in base_link for a scanner on a tilt axis. The tilt axis sits at
+// (x_tilt, 0, z_tilt) in base_link; the laser's sensing point at (x_laser, 0, z_laser) in the
+// tilt frame; tilt_angle rotates about the tilt frame's y axis (positive looks down).
+Eigen::Isometry3d tilting_laser_pose(double x_tilt, double z_tilt, double x_laser, double z_laser,
+                                     double tilt_angle);
+
+// Eq. 4: roll-pitch-yaw rotation RPY(phi = yaw, theta = pitch, psi = roll).
+Eigen::Matrix3d rpy_rotation(double yaw, double pitch, double roll);
+
+struct LocalMapConfig {
+  double resolution = 0.1;          // m per cell, the DSM's
+  double size_m = 80.0;             // side of the square grid
+  double memory_distance_m = 1e9;   // travel after which an un-refreshed cell is forgotten
+  double min_point_range_m = 0.5;   // returns closer than this (robot body) are ignored
+};
+
+struct InsertStatistics {
+  size_t inserted = 0;        // points written into a cell
+  size_t out_of_grid = 0;     // points outside the local grid
+  size_t invalid = 0;         // NaN / inf ranges or points, no-return beams
+};
+
+class LocalElevationMap {
+ public:
+  explicit LocalElevationMap(const LocalMapConfig& config);
+
+  // Moves the grid so that `position` (odom frame) lies in its central half; keeps what overlaps.
+  void follow(const Eigen::Vector2d& position);
+
+  // Eq. 1-5: a scan taken with base_link at T_odom_base (position, roll, pitch, yaw).
+  InsertStatistics insert_scan(const LaserScan& scan, const Eigen::Isometry3d& T_odom_base,
+                               double travelled_m);
+  // Points in the sensor frame (sensor_pose: sensor in base_link).
+  InsertStatistics insert_cloud(const PointCloud& cloud, const Eigen::Isometry3d& T_odom_base,
+                                double travelled_m);
+  // Eq. 5 for one point in the odom frame. False when outside the grid.
+  bool insert_point(const Eigen::Vector3d& point_odom, double travelled_m);
+
+  // The EMOI of every radius at `position` (odom frame) over observed, not forgotten cells;
+  // centre_elevation is the robot's ground height in the odom frame.
+  std::vector<PointEmoi> emoi(const Eigen::Vector2d& position, double centre_elevation,
+                              const std::vector<double>& radii_m, double travelled_m) const;
+
+  // Observed elevations (NaN where unknown or forgotten) and the grid geometry (odom frame).
+  cv::Mat_<float> observed(double travelled_m) const;
+  GridGeometry geometry() const;
+  size_t observed_cells(double travelled_m) const;
+
+ private:
+  LocalMapConfig config_;
+  int cells_ = 0;
+  Eigen::Vector2i origin_cell_{0, 0};  // odom-frame cell index of grid (0, 0)
+  bool anchored_ = false;
+  cv::Mat_<float> elevation_;          // NaN = never seen
+  cv::Mat_<float> seen_at_;            // travel (m) when last written
+};
+
+}  // namespace locd::emoi

@@ -1,0 +1,335 @@
+#include "locd/emoi_markov/emoi_markov_localizer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include <opencv2/imgproc.hpp>
+
+#include "locd/emoi_markov/emoi_cache.hpp"
+#include "locd/sdk/geometry.hpp"
+
+namespace locd::emoi {
+namespace {
+
+bool finite_pose(const Eigen::Isometry3d& T) { return T.matrix().allFinite(); }
+
+std::string format_number(double v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
+GridLayer pooled_layer(const cv::Mat_<float>& cells, const GridGeometry& geometry, size_t max_cells,
+                       const std::string& name, bool keep_mass) {
+  const size_t total = static_cast<size_t>(cells.rows) * static_cast<size_t>(cells.cols);
+  int factor = 1;
+  while (total / (static_cast<size_t>(factor) * factor) > max_cells) ++factor;
+  cv::Mat_<float> pooled = cells;
+  if (factor > 1) {
+    const int rows = cells.rows / factor, cols = cells.cols / factor;
+    cv::resize(cells(cv::Rect(0, 0, cols * factor, rows * factor)), pooled, cv::Size(cols, rows), 0, 0,
+               cv::INTER_AREA);
+    if (keep_mass) pooled *= static_cast<double>(factor) * factor;
+  }
+  GridLayer layer;
+  layer.layer = name;
+  layer.resolution = geometry.resolution * factor;
+  layer.origin = geometry.origin;
+  layer.width = pooled.cols;
+  layer.height = pooled.rows;
+  layer.cells.assign(pooled.begin(), pooled.end());
+  return layer;
+}
+
+}  // namespace
+
+EmoiMarkovConfig parse_config(const Params& params) {
+  params.expect_only({"map", "radii_m", "sigma_m", "min_likelihood", "min_coverage", "full_coverage",
+                      "odometry_error", "min_blur_m", "update_distance_m", "heading_source", "use_initial_pose",
+                      "base_height_m", "local_map_size_m", "local_map_memory_m", "min_point_range_m", "cache",
+                      "belief_output_max_cells"});
+  EmoiMarkovConfig config;
+  config.map = params.required_text("map");
+  config.radii_m = params.numbers("radii_m", config.radii_m, 0, Range::open(0.0, 1000.0));
+  if (config.radii_m.empty() || config.radii_m.size() > 8) {
+    params.fail("radii_m", "has " + std::to_string(config.radii_m.size()) + " radii; allowed: 1 to 8 radii in (0, 1000) m");
+  }
+  config.sensor.sigma_m = params.number("sigma_m", config.sensor.sigma_m, Range::positive());
+  config.sensor.min_likelihood = params.number("min_likelihood", config.sensor.min_likelihood, Range::open(0.0, 1.0));
+  config.sensor.min_coverage = params.number("min_coverage", config.sensor.min_coverage, {0.0, 1.0, true, false});
+  config.sensor.full_coverage = params.number("full_coverage", config.sensor.full_coverage, {0.0, 1.0, true, false});
+  if (config.sensor.full_coverage < config.sensor.min_coverage) {
+    params.fail("full_coverage", "= " + format_number(config.sensor.full_coverage) + " is below min_coverage = " +
+                                     format_number(config.sensor.min_coverage) + "; allowed: [min_coverage, 1]");
+  }
+  config.odometry_error = params.number("odometry_error", config.odometry_error, Range::closed(0.0, 1.0));
+  config.min_blur_m = params.number("min_blur_m", config.min_blur_m, Range::closed(0.0, 100.0));
+  config.update_distance_m = params.number("update_distance_m", config.update_distance_m, Range::open(0.0, 10000.0));
+  config.heading_source = params.text("heading_source", config.heading_source, {"odometry", "imu"});
+  config.use_initial_pose = params.flag("use_initial_pose", config.use_initial_pose);
+  config.base_height_m = params.number("base_height_m", config.base_height_m, Range::closed(-10.0, 10.0));
+  const double max_radius = *std::max_element(config.radii_m.begin(), config.radii_m.end());
+  const double default_size = std::max(4.0 * max_radius, 40.0) + 20.0;
+  config.local_map.size_m = params.number("local_map_size_m", default_size, Range::closed(4.0 * max_radius, 2000.0));
+  config.local_map.memory_distance_m =
+      params.number("local_map_memory_m", config.local_map.memory_distance_m, Range::positive());
+  config.local_map.min_point_range_m =
+      params.number("min_point_range_m", config.local_map.min_point_range_m, Range::closed(0.0, 100.0));
+  config.cache = params.flag("cache", config.cache);
+  config.belief_output_max_cells = static_cast<size_t>(
+      params.integer("belief_output_max_cells", static_cast<long>(config.belief_output_max_cells), 1, 16'777'216));
+  return config;
+}
+
+void EmoiMarkovLocalizer::configure(const PluginContext& context, const Params& params) {
+  EmoiMarkovConfig config = parse_config(params);
+  const auto file = context.maps.resolve(config.map);
+  ElevationMap dsm = load_dsm(file, context.limits.max_map_cells);
+  configure(context, config, std::move(dsm));
+}
+
+void EmoiMarkovLocalizer::configure(const PluginContext& context, const EmoiMarkovConfig& config, ElevationMap dsm) {
+  if (dsm.geometry.size() > context.limits.max_map_cells) {
+    throw ConfigError("DSM '" + config.map + "' has " + std::to_string(dsm.geometry.size()) +
+                      " cells; allowed: at most limits.max_map_cells = " + std::to_string(context.limits.max_map_cells));
+  }
+  context_ = context;
+  config_ = config;
+  int last_decile = -1;
+  const ProgressCallback progress = [&](double fraction, const std::string& stage) {
+    const int decile = static_cast<int>(fraction * 10.0);
+    if (decile == last_decile) return;
+    last_decile = decile;
+    context_.log(LogLevel::kInfo, "emoi_markov: EMOI layers " + std::to_string(decile * 10) + "% (" + stage + ")");
+  };
+  const std::optional<std::filesystem::path> cache_directory =
+      config.cache ? std::optional<std::filesystem::path>(default_cache_directory()) : std::nullopt;
+  LayersSource source = load_or_compute_layers(dsm, config.radii_m, cache_directory, progress);
+  layers_from_cache_ = source.from_cache;
+  context_.log(LogLevel::kInfo, std::string("emoi_markov: EMOI layers ") +
+                                    (source.from_cache ? "read from the cache" : "computed") + " (key " +
+                                    source.key.substr(0, 12) + ")");
+  grid_ = std::make_unique<MarkovGrid>(dsm.geometry, std::move(source.layers), config.sensor);
+  dsm_elevation_ = dsm.elevation;
+  config_.local_map.resolution = dsm.geometry.resolution;
+  local_map_ = std::make_unique<LocalElevationMap>(config_.local_map);
+  last_odometry_.reset();
+  imu_orientation_.reset();
+  yaw_offset_ = 0.0;
+  pending_set_pose_yaw_.reset();
+  pending_shift_.setZero();
+  pending_travel_m_ = travelled_m_ = 0.0;
+  summary_ = grid_->summary();
+  sensor_updates_ = rejected_points_ = belief_resets_ = 0;
+}
+
+void EmoiMarkovLocalizer::set_pose(const PoseEstimate& pose) {
+  if (!grid_) throw InputError("set_pose before configure");
+  if (!finite_pose(pose.pose) || !pose.covariance.allFinite()) {
+    throw InputError("initial pose has a NaN or infinite value");
+  }
+  const Eigen::Vector2d xy = pose.pose.translation().head<2>();
+  int row = 0, col = 0;
+  const GridGeometry& g = grid_->geometry();
+  if (!g.index_of(xy, row, col)) {
+    throw InputError("initial pose (" + format_number(xy.x()) + ", " + format_number(xy.y()) +
+                     ") lies outside the DSM [" + format_number(g.origin.x()) + ", " +
+                     format_number(g.origin.x() + g.width * g.resolution) + "] x [" + format_number(g.origin.y()) +
+                     ", " + format_number(g.origin.y() + g.height * g.resolution) + "]");
+  }
+  const double yaw = yaw_of(pose.pose.linear());
+  if (last_odometry_) {
+    yaw_offset_ = normalize_angle(yaw - yaw_of(last_odometry_->pose.linear()));
+  } else {
+    pending_set_pose_yaw_ = yaw;
+  }
+  if (config_.use_initial_pose) {
+    const double stddev = std::sqrt(std::max({pose.covariance(0, 0), pose.covariance(1, 1), 0.0}));
+    grid_->set_gaussian(xy, stddev);
+    summary_ = grid_->summary();
+    pending_shift_.setZero();
+    pending_travel_m_ = 0.0;
+  }
+}
+
+Eigen::Isometry3d EmoiMarkovLocalizer::base_in_odom() const {
+  Eigen::Isometry3d T = last_odometry_->pose;
+  if (imu_orientation_) {
+    // Attitude (roll, pitch) from the IMU, as the paper's inclinometer; yaw from odometry.
+    const Eigen::Vector3d rpy = roll_pitch_yaw(imu_orientation_->toRotationMatrix());
+    T.linear() = rpy_rotation(yaw_of(last_odometry_->pose.linear()), rpy.y(), rpy.x());
+  }
+  return T;
+}
+
+double EmoiMarkovLocalizer::map_heading() const {
+  if (config_.heading_source == "imu" && imu_orientation_) return yaw_of(imu_orientation_->toRotationMatrix());
+  const double odom_yaw = last_odometry_ ? yaw_of(last_odometry_->pose.linear()) : 0.0;
+  return normalize_angle(odom_yaw + yaw_offset_);
+}
+
+UpdateResult EmoiMarkovLocalizer::update(const Measurement& measurement) {
+  if (!grid_) throw InputError("measurement before configure");
+  return std::visit(
+      [&](const auto& m) -> UpdateResult {
+        using T = std::decay_t<decltype(m)>;
+        if constexpr (std::is_same_v<T, Odometry>) {
+          return on_odometry(m);
+        } else if constexpr (std::is_same_v<T, Imu>) {
+          return on_imu(m);
+        } else if constexpr (std::is_same_v<T, LaserScan>) {
+          return on_scan(m);
+        } else if constexpr (std::is_same_v<T, PointCloud>) {
+          return on_cloud(m);
+        } else {
+          throw InputError(std::string("emoi_markov does not consume '") + kind_name(kind_of(measurement)) +
+                           "' measurements; it consumes odometry, imu, scan and cloud");
+        }
+      },
+      measurement);
+}
+
+UpdateResult EmoiMarkovLocalizer::on_odometry(const Odometry& odometry) {
+  if (!finite_pose(odometry.pose)) throw InputError("odometry pose has a NaN or infinite value");
+  if (last_odometry_ && odometry.header.stamp_ns < last_odometry_->header.stamp_ns) {
+    throw InputError("odometry stamp " + std::to_string(odometry.header.stamp_ns) + " ns goes back from " +
+                     std::to_string(last_odometry_->header.stamp_ns) + " ns");
+  }
+  if (last_odometry_) {
+    const double heading_offset = normalize_angle(map_heading() - yaw_of(last_odometry_->pose.linear()));
+    const Eigen::Vector2d step =
+        (odometry.pose.translation() - last_odometry_->pose.translation()).head<2>();
+    pending_shift_ += Eigen::Rotation2Dd(heading_offset) * step;
+    pending_travel_m_ += step.norm();
+    travelled_m_ += step.norm();
+  }
+  last_odometry_ = odometry;
+  if (pending_set_pose_yaw_) {
+    yaw_offset_ = normalize_angle(*pending_set_pose_yaw_ - yaw_of(odometry.pose.linear()));
+    pending_set_pose_yaw_.reset();
+  }
+  last_stamp_ns_ = odometry.header.stamp_ns;
+  UpdateResult result;
+  result.estimate = estimate(odometry.header.stamp_ns);
+  return result;
+}
+
+UpdateResult EmoiMarkovLocalizer::on_imu(const Imu& imu) {
+  const Eigen::Vector4d q = imu.orientation.coeffs();
+  if (!q.allFinite() || std::abs(q.norm() - 1.0) > 1e-3) {
+    throw InputError("imu orientation is not a unit quaternion (norm " + format_number(q.norm()) + ")");
+  }
+  imu_orientation_ = imu.orientation.normalized();
+  return {};
+}
+
+UpdateResult EmoiMarkovLocalizer::on_scan(const LaserScan& scan) {
+  if (!last_odometry_) throw InputError("scan before any odometry: the local elevation map needs the robot's pose");
+  if (scan.ranges.size() > context_.limits.max_scan_beams) {
+    throw InputError("scan has " + std::to_string(scan.ranges.size()) + " beams; allowed: at most " +
+                     std::to_string(context_.limits.max_scan_beams) + " (limits.max_scan_beams)");
+  }
+  if (!finite_pose(scan.sensor_pose) || !std::isfinite(scan.angle_min) || !std::isfinite(scan.angle_increment)) {
+    throw InputError("scan sensor_pose, angle_min or angle_increment is NaN or infinite");
+  }
+  local_map_->follow(last_odometry_->pose.translation().head<2>());
+  const InsertStatistics stats = local_map_->insert_scan(scan, base_in_odom(), travelled_m_);
+  rejected_points_ += stats.invalid;
+  return after_insert(scan.header.stamp_ns);
+}
+
+UpdateResult EmoiMarkovLocalizer::on_cloud(const PointCloud& cloud) {
+  if (!last_odometry_) throw InputError("cloud before any odometry: the local elevation map needs the robot's pose");
+  if (cloud.points.size() > context_.limits.max_cloud_points) {
+    throw InputError("cloud has " + std::to_string(cloud.points.size()) + " points; allowed: at most " +
+                     std::to_string(context_.limits.max_cloud_points) + " (limits.max_cloud_points)");
+  }
+  if (!finite_pose(cloud.sensor_pose)) throw InputError("cloud sensor_pose is NaN or infinite");
+  local_map_->follow(last_odometry_->pose.translation().head<2>());
+  const InsertStatistics stats = local_map_->insert_cloud(cloud, base_in_odom(), travelled_m_);
+  rejected_points_ += stats.invalid;
+  return after_insert(cloud.header.stamp_ns);
+}
+
+UpdateResult EmoiMarkovLocalizer::after_insert(int64_t stamp_ns) {
+  UpdateResult result;
+  if (pending_travel_m_ < config_.update_distance_m) return result;
+  // Table 1, action: shift by the odometry, blur by its error.
+  const double blur = std::hypot(config_.odometry_error * pending_travel_m_, config_.min_blur_m);
+  const MotionUpdateReport motion = grid_->motion_update(pending_shift_, blur);
+  if (motion.reset) ++belief_resets_;
+  last_mass_lost_ = motion.mass_lost;
+  pending_shift_.setZero();
+  pending_travel_m_ = 0.0;
+  // Table 1, perception: the robot's EMOI over its observed cells, eq. 8, normalise.
+  const Eigen::Vector3d position = last_odometry_->pose.translation();
+  last_robot_emoi_ = local_map_->emoi(position.head<2>(), position.z() - config_.base_height_m, config_.radii_m,
+                                      travelled_m_);
+  EmoiObservation z;
+  for (const auto& e : last_robot_emoi_) {
+    z.emoi.push_back(e.emoi);
+    z.coverage.push_back(e.coverage);
+  }
+  const SensorUpdateReport sensor = grid_->sensor_update(z);
+  summary_ = grid_->summary();
+  ++sensor_updates_;
+
+  result.estimate = estimate(stamp_ns);
+  result.grid = belief_layer();
+  auto& values = result.diagnostics.values;
+  for (size_t i = 0; i < config_.radii_m.size(); ++i) {
+    const std::string r = std::to_string(static_cast<int>(std::lround(config_.radii_m[i])));
+    values.emplace_back("emoi_r" + r, last_robot_emoi_[i].emoi);
+    values.emplace_back("coverage_r" + r, last_robot_emoi_[i].coverage);
+    values.emplace_back("weight_r" + r, sensor.weights[i]);
+  }
+  values.emplace_back("sensor_update_applied", sensor.applied ? 1.0 : 0.0);
+  values.emplace_back("evidence", sensor.evidence);
+  values.emplace_back("mass_lost", motion.mass_lost);
+  values.emplace_back("belief_resets", static_cast<double>(belief_resets_));
+  values.emplace_back("max_probability", summary_.max_probability);
+  values.emplace_back("entropy", summary_.entropy);
+  values.emplace_back("sensor_updates", static_cast<double>(sensor_updates_));
+  values.emplace_back("rejected_points", static_cast<double>(rejected_points_));
+  return result;
+}
+
+PoseEstimate EmoiMarkovLocalizer::estimate(int64_t stamp_ns) const {
+  PoseEstimate out;
+  out.header.stamp_ns = stamp_ns;
+  out.header.frame_id = "map";
+  const Eigen::Vector2d xy = summary_.mode + pending_shift_;
+  double z = 0.0;
+  int row = 0, col = 0;
+  if (grid_->geometry().index_of(xy, row, col) && std::isfinite(dsm_elevation_(row, col))) {
+    z = dsm_elevation_(row, col) + config_.base_height_m;
+  }
+  double roll = 0.0, pitch = 0.0;
+  if (imu_orientation_) {
+    const Eigen::Vector3d rpy = roll_pitch_yaw(imu_orientation_->toRotationMatrix());
+    roll = rpy.x();
+    pitch = rpy.y();
+  }
+  out.pose = isometry_from_xyz_rpy(xy.x(), xy.y(), z, roll, pitch, map_heading());
+  out.covariance = Matrix6d::Zero();
+  const double drift = config_.odometry_error * pending_travel_m_;
+  out.covariance.block<2, 2>(0, 0) = summary_.covariance + Eigen::Matrix2d::Identity() * drift * drift;
+  out.covariance(2, 2) = 1.0;
+  out.covariance(3, 3) = out.covariance(4, 4) = 0.01;
+  out.covariance(5, 5) = 0.05 * 0.05;
+  return out;
+}
+
+GridLayer EmoiMarkovLocalizer::belief_layer() const {
+  return pooled_layer(grid_->belief(), grid_->geometry(), config_.belief_output_max_cells, "belief", true);
+}
+
+UpdateResult EmoiMarkovLocalizer::initial_outputs() const {
+  UpdateResult result;
+  if (!grid_) return result;
+  result.grid = belief_layer();
+  return result;
+}
+
+}  // namespace locd::emoi
