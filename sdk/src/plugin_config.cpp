@@ -21,12 +21,9 @@ PluginConfig split_plugin_config(const Params& document, const std::string& sour
   }
   const std::string plugin = document.required_text("plugin");
   check_plugin_name(plugin, source_name + " (" + document.where("plugin") + ")");
-  YAML::Node params = document.node()["params"];
-  if (!params.IsDefined() || params.IsNull()) {
-    params = YAML::Node(YAML::NodeType::Map);
-  } else if (!params.IsMap()) {
-    document.fail("params", "is not a map; expected the plugin's parameters as 'key: value' lines");
-  }
+  if (!document.has("params")) return {plugin, Params(YAML::Node(YAML::NodeType::Map), plugin)};
+  const YAML::Node params = document.node()["params"];
+  if (!params.IsMap()) document.fail("params", "is not a map; expected the plugin's parameters as 'key: value' lines");
   return {plugin, Params(params, plugin)};
 }
 

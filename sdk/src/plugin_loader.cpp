@@ -45,7 +45,12 @@ fs::path MapResolver::resolve(const std::string& name) const {
 // ------------------------------------------------------------------------- PluginLibrary
 
 void LocalizerDeleter::operator()(Localizer* instance) const {
-  if (instance && library) library->descriptor().destroy(instance);
+  if (!instance) return;
+  if (library) {
+    library->descriptor().destroy(instance);
+  } else {
+    delete instance;  // made in this process without a library (e.g. a test's localizer)
+  }
 }
 
 PluginLibrary::PluginLibrary(void* handle, fs::path file, const locd_plugin_descriptor_t* d)
@@ -169,9 +174,11 @@ LocalizerPtr create_configured(const PluginCatalog& catalog, const std::string& 
   } catch (const ConfigError&) {
     throw;
   } catch (const std::exception& e) {
-    throw ConfigError("plugin '" + plugin + "' failed to configure: " + e.what());
+    throw ConfigError("plugin '" + plugin + "' (" + catalog.find(plugin)->file().string() +
+                      ") failed to configure: " + e.what());
   } catch (...) {
-    throw ConfigError("plugin '" + plugin + "' failed to configure with a non-standard exception");
+    throw ConfigError("plugin '" + plugin + "' (" + catalog.find(plugin)->file().string() +
+                      ") failed to configure with a non-standard exception");
   }
   return instance;
 }
