@@ -51,6 +51,17 @@ void split(const std::vector<Eigen::Vector2d>& points, size_t first, size_t last
   split(points, worst_index, last, split_distance, out);
 }
 
+// Two pieces cut apart by a noisy point still fit one line: their (r, phi) agree within the
+// chi-square 99.9 % gate of their combined covariance.
+bool same_line(const std::vector<Eigen::Vector2d>& points, const Segment& a, const Segment& b, double point_stddev) {
+  if (a.last - a.first < 2 || b.last - b.first < 2) return false;
+  const LineFit fa = fit_line(points, a.first, a.last, point_stddev);
+  const LineFit fb = fit_line(points, b.first, b.last, point_stddev);
+  const Eigen::Vector2d difference(fa.z.x() - fb.z.x(), normalize_angle(fa.z.y() - fb.z.y()));
+  const Eigen::Matrix2d S = fa.covariance + fb.covariance;
+  return difference.dot(S.ldlt().solve(difference)) < 13.82;
+}
+
 }  // namespace
 
 LineFit fit_line(const std::vector<Eigen::Vector2d>& points, size_t first, size_t last, double point_stddev) {
@@ -122,16 +133,31 @@ ExtractedFeatures LaserFeatureExtractor::extract(const LaserScan& scan) const {
     cluster_end[i - 1] = true;
     std::vector<Segment> pieces;
     split(points, begin, i - 1, c.split_distance, pieces);
+    std::vector<Segment> merged;
     Segment current = pieces.front();
     for (size_t k = 1; k < pieces.size(); ++k) {
-      if (fit_line(points, current.first, pieces[k].last, c.range_stddev).max_residual <= c.split_distance) {
+      if (fit_line(points, current.first, pieces[k].last, c.range_stddev).max_residual <= c.split_distance ||
+          same_line(points, current, pieces[k], c.range_stddev)) {
         current.last = pieces[k].last;
+      } else if (pieces[k].last - pieces[k].first < 2 && k + 1 < pieces.size() &&
+                 same_line(points, current, pieces[k + 1], c.range_stddev)) {
+        current.last = pieces[++k].last;  // a stray point between two pieces of one line
       } else {
-        segments.push_back(current);
+        merged.push_back(current);
         current = pieces[k];
       }
     }
-    segments.push_back(current);
+    merged.push_back(current);
+    // A split point lies on one of its two segments only (or near the corner between them):
+    // fitting neither with it keeps both fits unbiased.
+    for (size_t k = 1; k < merged.size(); ++k) {
+      if (merged[k].first == merged[k - 1].last && merged[k].first < merged[k].last &&
+          merged[k - 1].first < merged[k - 1].last) {
+        ++merged[k].first;
+        --merged[k - 1].last;
+      }
+    }
+    segments.insert(segments.end(), merged.begin(), merged.end());
     begin = i;
   }
 
@@ -193,6 +219,13 @@ ExtractedFeatures LaserFeatureExtractor::extract(const LaserScan& scan) const {
   // Edges: a line end at a cluster boundary whose neighbour beam hits a surface farther away and
   // off the line's extension (the line occludes it). The true end lies between the two beams.
   const double beam_step = std::abs(static_cast<double>(scan.angle_increment));
+  // The neighbour beam saw something farther: a return beyond the jump, or open space (a range
+  // above range_max or +inf). NaN or a range below range_min says nothing.
+  const auto neighbour_is_farther = [&](size_t beam, size_t end_index) {
+    const float r = scan.ranges[beam];
+    if (scan.valid_return(beam)) return r >= ranges[end_index] + c.edge_min_depth_jump;
+    return r > scan.range_max;
+  };
   for (size_t k = 0; k < features.lines.size(); ++k) {
     const ExtractedLine& line = features.lines[k];
     const Eigen::Vector2d normal = normal_of(line.z.y()), direction = direction_of(line.z.y());
@@ -200,12 +233,13 @@ ExtractedFeatures LaserFeatureExtractor::extract(const LaserScan& scan) const {
       const size_t end_index = side < 0 ? kept[k].first : kept[k].last;
       const bool at_boundary = side < 0 ? cluster_start[end_index] : cluster_end[end_index];
       if (!at_boundary) continue;
-      if (side < 0 && end_index == 0) continue;
-      if (side > 0 && end_index + 1 >= points.size()) continue;
-      const size_t neighbour = side < 0 ? end_index - 1 : end_index + 1;
-      if (beams[neighbour] != (side < 0 ? beams[end_index] - 1 : beams[end_index] + 1)) continue;
-      if (ranges[neighbour] < ranges[end_index] + c.edge_min_depth_jump) continue;
-      if (std::abs(points[neighbour].dot(normal) - line.z.x()) < c.edge_min_depth_jump) continue;
+      if (side < 0 && beams[end_index] == 0) continue;  // the field of view ends here, not the surface
+      if (side > 0 && beams[end_index] + 1 >= scan.ranges.size()) continue;
+      const size_t neighbour = side < 0 ? end_index - 1 : end_index + 1;  // may be out of range (unused then)
+      const size_t neighbour_beam = side < 0 ? beams[end_index] - 1 : beams[end_index] + 1;
+      if (!neighbour_is_farther(neighbour_beam, end_index)) continue;
+      const bool neighbour_hit = neighbour < points.size() && beams[neighbour] == neighbour_beam;
+      if (neighbour_hit && std::abs(points[neighbour].dot(normal) - line.z.x()) < c.edge_min_depth_jump) continue;
       const double ray_angle = sensor.theta + scan.angle(beams[end_index]) + 0.5 * side * scan.angle_increment;
       const Eigen::Vector2d ray(std::cos(ray_angle), std::sin(ray_angle));
       const double incidence = std::abs(normal.dot(ray));

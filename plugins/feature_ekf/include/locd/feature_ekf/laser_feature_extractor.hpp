@@ -18,7 +18,7 @@ namespace locd::feature_ekf {
 struct ExtractorConfig {
   double range_stddev = 0.01;           // m, laser range noise: the point noise of the line fit
   double breakpoint_distance = 0.2;     // m, consecutive points farther apart start a new cluster
-  double split_distance = 0.03;         // m, a point farther from its segment's line splits it
+  double split_distance = 0.05;         // m, a point farther from its segment's line splits it
   int min_points = 6;                   // points a line needs
   double min_length = 0.3;              // m, length a line needs
   double corner_min_angle = M_PI / 4;   // rad, adjacent lines meeting at a smaller angle are no corner

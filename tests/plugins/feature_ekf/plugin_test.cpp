@@ -1,0 +1,188 @@
+// The built plugin, loaded like the server loads it: configure, updates, errors.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "locd/sdk/plugin_loader.hpp"
+#include "synthetic_scan.hpp"
+#include "test_env.hpp"
+
+using namespace locd;
+
+namespace {
+
+const char* kBuilding = R"(walls:
+  - [[0, 0], [12, 0], [12, 8], [0, 8]]
+  - [[6, 3], [6, 5]]
+  - [[2, 6], [3.5, 6], [3.5, 7]]
+closed: [true, false, false]
+)";
+
+class FeatureEkfPlugin : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    map_dir_ = std::filesystem::temp_directory_path() /
+               ("feature_ekf_plugin_test_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(map_dir_);
+    std::ofstream(map_dir_ / "building.yaml") << kBuilding;
+    catalog_ = PluginCatalog({test::plugin_dir()});
+    context_.robot_id = "r1";
+    context_.maps = MapResolver({map_dir_});
+  }
+  void TearDown() override { std::filesystem::remove_all(map_dir_); }
+
+  LocalizerPtr configured(const std::string& params_yaml) {
+    const Params config = Params::parse("plugin: feature_ekf\nparams:\n" + params_yaml, "test config");
+    return create_configured(catalog_, "feature_ekf", context_, Params(config.node()["params"], "feature_ekf"));
+  }
+
+  std::string config_error(const std::string& params_yaml) {
+    try {
+      configured(params_yaml);
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "no ConfigError";
+  }
+
+  std::filesystem::path map_dir_;
+  PluginCatalog catalog_;
+  PluginContext context_;
+};
+
+Odometry odometry_at(const Pose2& pose, int64_t stamp) {
+  Odometry o;
+  o.header.stamp_ns = stamp;
+  o.pose = pose.to_isometry();
+  return o;
+}
+
+}  // namespace
+
+TEST_F(FeatureEkfPlugin, LoadsThroughTheCatalogAndLocalizes) {
+  const auto library = catalog_.find("feature_ekf");
+  ASSERT_NE(library, nullptr) << "plugin dir " << test::plugin_dir();
+  EXPECT_EQ(library->descriptor().consumes,
+            kinds(MeasurementKind::kOdometry, MeasurementKind::kLaserScan));
+
+  LocalizerPtr localizer = configured("  map: building.yaml\n  gate_probability: 0.99\n");
+  const UpdateResult outputs = localizer->initial_outputs();
+  ASSERT_TRUE(outputs.landmark_map.has_value());
+  EXPECT_EQ(outputs.landmark_map->size(), 7u + 5u + 4u);  // lines + corners + edges
+
+  PoseEstimate initial;
+  initial.pose = Pose2(6.1, 1.4, 0.03).to_isometry();
+  initial.covariance = Matrix6d::Identity() * 0.04;
+  localizer->set_pose(initial);
+
+  std::mt19937_64 rng(4);
+  Pose2 truth(6.0, 1.5, 0.0);
+  Pose2 odometry;
+  const FeatureMap2D map = test::map_from_walls(kBuilding);
+  std::optional<UpdateResult> last;
+  for (int k = 0; k < 50; ++k) {
+    const int64_t stamp = k * 40'000'000LL;
+    if (k > 0) {
+      truth = truth * Pose2(0.02, 0.0, 0.005);
+      odometry = odometry * Pose2(0.02, 0.0, 0.005);
+    }
+    EXPECT_FALSE(localizer->update(odometry_at(odometry, stamp)).estimate.has_value());
+    LaserScan scan = test::ray_cast_scan(map.lines, truth, test::ScanGeometry{}, &rng);
+    scan.header.stamp_ns = stamp;
+    last = localizer->update(scan);
+    ASSERT_TRUE(last->estimate.has_value());
+    EXPECT_EQ(last->estimate->header.stamp_ns, stamp);
+  }
+  const Pose2 estimate = Pose2::from_isometry(last->estimate->pose);
+  EXPECT_LT(std::hypot(estimate.x - truth.x, estimate.y - truth.y), 0.05);
+  EXPECT_LT(std::abs(normalize_angle(estimate.theta - truth.theta)), 0.02);
+  const Matrix6d& C = last->estimate->covariance;
+  EXPECT_GT(C(0, 0), 0.0);
+  EXPECT_GT(C(5, 5), 0.0);
+  EXPECT_EQ(C(2, 2), 0.0);
+
+  std::map<std::string, double> values(last->diagnostics.values.begin(), last->diagnostics.values.end());
+  for (const char* key : {"lines_extracted", "corners_extracted", "edges_extracted", "lines_matched",
+                          "corners_matched", "edges_matched", "mean_nis"}) {
+    EXPECT_EQ(values.count(key), 1u) << key;
+  }
+  EXPECT_GE(values["lines_matched"], 2.0);
+  ASSERT_FALSE(last->diagnostics.associations.empty());
+  int associated = 0;
+  for (const AssociationRecord& a : last->diagnostics.associations) associated += a.feature_id.empty() ? 0 : 1;
+  EXPECT_GE(associated, 3);
+}
+
+TEST_F(FeatureEkfPlugin, BadConfigsNameTheKeyAndTheAllowedRange) {
+  std::string message = config_error("  map: building.yaml\n  gate_probability: 1.5\n");
+  EXPECT_NE(message.find("feature_ekf.gate_probability"), std::string::npos) << message;
+  EXPECT_NE(message.find("(0, 1)"), std::string::npos) << message;
+
+  message = config_error("  map: building.yaml\n  motion:\n    speed_stddev_floor: -0.1\n");
+  EXPECT_NE(message.find("feature_ekf.motion.speed_stddev_floor"), std::string::npos) << message;
+  EXPECT_NE(message.find("[0, "), std::string::npos) << message;
+
+  message = config_error("  map: building.yaml\n  extraction:\n    range_stddev: 0\n");
+  EXPECT_NE(message.find("feature_ekf.extraction.range_stddev"), std::string::npos) << message;
+
+  message = config_error("  map: building.yaml\n  initial_pose: [1, 2]\n");
+  EXPECT_NE(message.find("feature_ekf.initial_pose"), std::string::npos) << message;
+
+  message = config_error("  map: building.yaml\n  gate_probabilty: 0.9\n");
+  EXPECT_NE(message.find("gate_probabilty"), std::string::npos) << message;
+
+  message = config_error("  gate_probability: 0.9\n");
+  EXPECT_NE(message.find("feature_ekf.map"), std::string::npos) << message;
+
+  message = config_error("  map: ../building.yaml\n");
+  EXPECT_NE(message.find("no ConfigError"), 0u) << message;
+  message = config_error("  map: /etc/passwd\n");
+  EXPECT_NE(message.find("no ConfigError"), 0u) << message;
+  message = config_error("  map: missing.yaml\n");
+  EXPECT_NE(message.find("no ConfigError"), 0u) << message;
+}
+
+TEST_F(FeatureEkfPlugin, BadMeasurementsAreRejectedAndTheSessionGoesOn) {
+  LocalizerPtr localizer = configured("  map: building.yaml\n  initial_pose: [6, 1.5, 0]\n");
+  const FeatureMap2D map = test::map_from_walls(kBuilding);
+  LaserScan scan = test::ray_cast_scan(map.lines, Pose2(6.0, 1.5, 0.0), test::ScanGeometry{});
+  scan.header.stamp_ns = 1'000'000'000;
+
+  LaserScan all_nan = scan;
+  std::fill(all_nan.ranges.begin(), all_nan.ranges.end(), std::numeric_limits<float>::quiet_NaN());
+  EXPECT_THROW(localizer->update(all_nan), InputError);
+  LaserScan empty = scan;
+  empty.ranges.clear();
+  EXPECT_THROW(localizer->update(empty), InputError);
+  LaserScan no_increment = scan;
+  no_increment.angle_increment = 0.0f;
+  EXPECT_THROW(localizer->update(no_increment), InputError);
+  LaserScan too_many = scan;
+  too_many.ranges.resize(Limits{}.max_scan_beams + 1, 1.0f);
+  EXPECT_THROW(localizer->update(too_many), InputError);
+
+  Odometry nan_odometry = odometry_at(Pose2(0, 0, 0), 0);
+  nan_odometry.pose.translation().x() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(localizer->update(nan_odometry), InputError);
+  EXPECT_THROW(localizer->update(Imu{}), InputError);
+
+  EXPECT_TRUE(localizer->update(scan).estimate.has_value());
+  LaserScan older = scan;
+  older.header.stamp_ns -= 1;
+  try {
+    localizer->update(older);
+    ADD_FAILURE() << "a scan going backwards was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("backwards"), std::string::npos) << e.what();
+  }
+  PoseEstimate bad_pose;
+  bad_pose.covariance(0, 0) = -1.0;
+  EXPECT_THROW(localizer->set_pose(bad_pose), InputError);
+
+  scan.header.stamp_ns += 40'000'000;
+  const UpdateResult after = localizer->update(scan);
+  ASSERT_TRUE(after.estimate.has_value());
+  EXPECT_LT((after.estimate->pose.translation().head<2>() - Eigen::Vector2d(6.0, 1.5)).norm(), 0.05);
+}
