@@ -1,0 +1,110 @@
+// feature_ekf speed on one core: 361-beam scans (180 deg at 0.5 deg, 1 cm noise) ray-cast in the
+// corridor world config/maps/corridor.yaml from 40 poses around its loop. Extraction, association
+// + update, and the two together are timed separately; items/s = scans/s.
+#include <benchmark/benchmark.h>
+
+#include <random>
+
+#include "locd/feature_ekf/feature_ekf_filter.hpp"
+#include "synthetic_scan.hpp"
+
+using namespace locd;
+using namespace locd::feature_ekf;
+
+namespace {
+
+struct Corridor {
+  FeatureMap2D map;
+  std::vector<Pose2> poses;
+  std::vector<LaserScan> scans;
+  std::vector<ExtractedFeatures> features;
+};
+
+// Poses on the corridor's centre line (1 m from the outer walls), heading along the loop.
+const Corridor& corridor() {
+  static const Corridor c = [] {
+    Corridor world;
+    world.map = load_feature_map(LOCD_CORRIDOR_MAP, 100000);
+    const std::vector<Eigen::Vector2d> corners = {{1, 1}, {39, 1}, {39, 19}, {1, 19}};
+    const double perimeter = 2 * (38 + 18);
+    std::mt19937_64 rng(42);
+    for (int i = 0; i < 40; ++i) {
+      double s = perimeter * i / 40.0 + 0.37;
+      for (int side = 0; side < 4; ++side) {
+        const Eigen::Vector2d a = corners[side], b = corners[(side + 1) % 4];
+        const double length = (b - a).norm();
+        if (s > length) {
+          s -= length;
+          continue;
+        }
+        const Eigen::Vector2d p = a + (b - a) * (s / length);
+        world.poses.emplace_back(p.x(), p.y(), std::atan2(b.y() - a.y(), b.x() - a.x()));
+        break;
+      }
+    }
+    const LaserFeatureExtractor extractor;
+    for (const Pose2& pose : world.poses) {
+      world.scans.push_back(test::ray_cast_scan(world.map.lines, pose, test::ScanGeometry{}, &rng));
+      world.features.push_back(extractor.extract(world.scans.back()));
+    }
+    return world;
+  }();
+  return c;
+}
+
+// A predicted pose a few centimetres off the truth, with the covariance a prediction has.
+void reset_near_truth(FeatureEkfFilter& filter, const Pose2& truth) {
+  filter.set_pose({truth.x + 0.03, truth.y - 0.02, truth.theta + 0.01},
+                  Eigen::Vector3d(0.05 * 0.05, 0.05 * 0.05, 0.02 * 0.02).asDiagonal());
+}
+
+void BM_Extraction(benchmark::State& state) {
+  const Corridor& world = corridor();
+  const LaserFeatureExtractor extractor;
+  size_t i = 0, features = 0;
+  for (auto _ : state) {
+    const ExtractedFeatures f = extractor.extract(world.scans[i++ % world.scans.size()]);
+    features += f.lines.size() + f.corners.size() + f.edges.size();
+    benchmark::DoNotOptimize(f);
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["features_per_scan"] = static_cast<double>(features) / state.iterations();
+}
+
+void BM_AssociationAndUpdate(benchmark::State& state) {
+  const Corridor& world = corridor();
+  FeatureEkfFilter filter(FeatureEkfConfig{}, world.map);
+  size_t i = 0, matched = 0;
+  for (auto _ : state) {
+    const size_t k = i++ % world.scans.size();
+    reset_near_truth(filter, world.poses[k]);
+    const ScanUpdateReport report = filter.update(world.features[k]);
+    matched += report.matched[0] + report.matched[1] + report.matched[2];
+    benchmark::DoNotOptimize(report);
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["matched_per_scan"] = static_cast<double>(matched) / state.iterations();
+}
+
+void BM_ScanUpdate(benchmark::State& state) {
+  const Corridor& world = corridor();
+  FeatureEkfFilter filter(FeatureEkfConfig{}, world.map);
+  size_t i = 0;
+  double error_sum = 0.0;
+  for (auto _ : state) {
+    const size_t k = i++ % world.scans.size();
+    reset_near_truth(filter, world.poses[k]);
+    const ScanUpdateReport report = filter.update(world.scans[k]);
+    benchmark::DoNotOptimize(report);
+    error_sum += std::hypot(filter.pose().x() - world.poses[k].x, filter.pose().y() - world.poses[k].y);
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["error_after_update_m"] = error_sum / state.iterations();
+}
+
+}  // namespace
+
+BENCHMARK(BM_Extraction);
+BENCHMARK(BM_AssociationAndUpdate);
+BENCHMARK(BM_ScanUpdate);
+BENCHMARK_MAIN();
