@@ -2,7 +2,10 @@
 // odometry, the error shrinks well below the odometry's drift.
 #include <gtest/gtest.h>
 
+#include <iostream>
 #include <random>
+
+#include "test_env.hpp"
 
 #include "locd/feature_ekf/feature_ekf_filter.hpp"
 #include "synthetic_scan.hpp"
@@ -131,4 +134,79 @@ TEST(FeatureEkfFilter, WithoutScansTheCovarianceGrowsWithTheMotion) {
   const Eigen::Vector3d pose = filter.pose();
   EXPECT_FALSE(filter.apply_odometry(Pose2(10, 0, 0), 40 * 50'000'000LL + 5'000'000'000LL));
   EXPECT_EQ(filter.pose(), pose);
+}
+
+namespace {
+
+// One lap of the corridor world's centre line (config/maps/corridor.yaml): straight at 1 m/s,
+// turning on the spot at 0.8 rad/s in the corners. Odometry at 50 Hz reads 0.5 % long and its
+// heading drifts 1 deg per metre driven (random walk); scans at 25 Hz, laser 0.2 m ahead.
+struct CorridorLap {
+  double rmse = 0.0, max_error = 0.0, mean_heading_error = 0.0, dead_reckoning_error = 0.0;
+  int scans = 0;
+};
+
+CorridorLap drive_corridor_lap(FeatureEkfFilter& filter, const Pose2& start, uint64_t seed) {
+  const FeatureMap2D& map = filter.map();
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  test::ScanGeometry laser;
+  laser.sensor_in_base = Pose2(0.2, 0.0, 0.0);
+  const double dt = 0.02, speed = 1.0, turn_rate = 0.8;
+  const double heading_drift_per_step = (M_PI / 180.0) * std::sqrt(speed * dt);
+  // Legs: drive to the next corner of the loop, then turn left by 90 deg.
+  const std::vector<Eigen::Vector2d> corners = {{39, 1}, {39, 19}, {1, 19}, {1, 1}};
+  Pose2 truth = start, odometry;
+  int64_t stamp = 0;
+  int step = 0;
+  double squared_sum = 0.0, heading_sum = 0.0;
+  CorridorLap lap;
+  filter.apply_odometry(odometry, stamp);
+  const auto advance = [&](const Pose2& true_step) {
+    truth = truth * true_step;
+    const Pose2 measured_step(true_step.x * 1.005, true_step.y,
+                              true_step.theta + heading_drift_per_step * unit(rng) * (true_step.x > 0 ? 1.0 : 0.0));
+    odometry = odometry * measured_step;
+    stamp += 20'000'000;
+    filter.apply_odometry(odometry, stamp);
+    if (++step % 2 == 0) {
+      filter.update(test::ray_cast_scan(map.lines, truth, laser, &rng));
+      const double error = (filter.pose().head<2>() - truth.vector().head<2>()).norm();
+      if (step * dt > 2.0) {  // after the first 2 s
+        squared_sum += error * error;
+        heading_sum += std::abs(normalize_angle(filter.pose().z() - truth.theta));
+        lap.max_error = std::max(lap.max_error, error);
+        ++lap.scans;
+      }
+    }
+  };
+  for (const Eigen::Vector2d& corner : corners) {
+    while ((corner - Eigen::Vector2d(truth.x, truth.y)).norm() > speed * dt) advance(Pose2(speed * dt, 0.0, 0.0));
+    const double target = normalize_angle(truth.theta + M_PI / 2);
+    while (std::abs(normalize_angle(target - truth.theta)) > turn_rate * dt) advance(Pose2(0.0, 0.0, turn_rate * dt));
+    truth.theta = target;
+  }
+  const Pose2 dead_reckoning = start * odometry;
+  lap.dead_reckoning_error = std::hypot(dead_reckoning.x - truth.x, dead_reckoning.y - truth.y);
+  lap.rmse = std::sqrt(squared_sum / lap.scans);
+  lap.mean_heading_error = heading_sum / lap.scans;
+  return lap;
+}
+
+}  // namespace
+
+TEST(FeatureEkfFilter, LapOfTheCorridorWorldStaysWithinFiveCentimetres) {
+  const FeatureMap2D map = load_feature_map(test::source_dir() + "/config/maps/corridor.yaml", 100000);
+  const Pose2 start(1.0, 1.0, 0.0);
+  FeatureEkfConfig config;
+  config.initial_pose = Eigen::Vector3d(start.x + 0.3, start.y - 0.2, 0.05);
+  config.initial_stddev = Eigen::Vector3d(0.5, 0.5, 0.1);
+  FeatureEkfFilter filter(config, map);
+  const CorridorLap lap = drive_corridor_lap(filter, start, 7);
+  std::cout << "corridor lap: scans " << lap.scans << ", rmse " << lap.rmse << " m, max " << lap.max_error
+            << " m, mean heading error " << lap.mean_heading_error * 180.0 / M_PI << " deg, dead reckoning "
+            << lap.dead_reckoning_error << " m\n";
+  EXPECT_GT(lap.dead_reckoning_error, 0.3);
+  EXPECT_LT(lap.rmse, 0.05);
+  EXPECT_LT(lap.max_error, 0.3);
 }

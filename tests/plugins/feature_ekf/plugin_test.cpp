@@ -186,3 +186,14 @@ TEST_F(FeatureEkfPlugin, BadMeasurementsAreRejectedAndTheSessionGoesOn) {
   ASSERT_TRUE(after.estimate.has_value());
   EXPECT_LT((after.estimate->pose.translation().head<2>() - Eigen::Vector2d(6.0, 1.5)).norm(), 0.05);
 }
+
+TEST_F(FeatureEkfPlugin, TheExampleConfigConfiguresWithTheCorridorMap) {
+  const Params config = Params::load_file(test::source_dir() + "/config/plugins/feature_ekf.yaml");
+  EXPECT_EQ(config.text("plugin", ""), "feature_ekf");
+  context_.maps = MapResolver({std::filesystem::path(test::source_dir()) / "config" / "maps"});
+  LocalizerPtr localizer =
+      create_configured(catalog_, "feature_ekf", context_, Params(config.node()["params"], "feature_ekf"));
+  const UpdateResult outputs = localizer->initial_outputs();
+  ASSERT_TRUE(outputs.landmark_map.has_value());
+  EXPECT_GT(outputs.landmark_map->size(), 50u);
+}
