@@ -161,6 +161,7 @@ void Server::handle_start(const std::shared_ptr<Session>& session, uint64_t gene
     }
   } catch (const std::exception& e) {
     if (!session->fail_request(generation, request.request_id, e.what())) abandon_if_failed(session, generation);
+    session->publish_status();
     return;
   }
   start_plugin(session, generation, request.request_id, config, source);
@@ -175,6 +176,7 @@ void Server::start_plugin(const std::shared_ptr<Session>& session, uint64_t gene
                      "plugin " + config.plugin + " " + library->descriptor().version + " configured from " + source);
   } catch (const std::exception& e) {
     if (!session->fail_request(generation, request_id, e.what())) abandon_if_failed(session, generation);
+    session->publish_status();
   }
 }
 

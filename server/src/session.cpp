@@ -199,7 +199,6 @@ bool Session::fail_request(uint64_t generation, uint64_t request_id, const std::
   }
   log(LogLevel::kWarning, "request " + std::to_string(request_id) + " failed" +
                               (running ? " (the running plugin carries on): " : ": ") + error);
-  publish_status();
   return running;
 }
 

@@ -49,7 +49,8 @@ class Session : public std::enable_shared_from_this<Session> {
   void install(uint64_t generation, uint64_t request_id, LocalizerPtr localizer, const std::string& plugin,
                const std::string& message);
   // The request failed: the running plugin (if any) keeps running, the status carries the error.
-  // Returns true when the session has a plugin running.
+  // Returns true when the session has a plugin running. The caller publishes the status (after
+  // forgetting a session left without a plugin, so the status never shows a stale session).
   bool fail_request(uint64_t generation, uint64_t request_id, const std::string& error);
   // After a failed request: if `generation` is still the newest and no plugin runs, the session
   // is marked stopped (its router then forgets it) and true is returned.

@@ -1,0 +1,361 @@
+// Bad input against a real locd over real DDS (loopback): each TEST starts build/bin/locd as a
+// child process with a temp config on its own domain id (50-69) and talks to it with the
+// locd::dds Writer/Reader directly. Every bad input gets a clear error on the robot's status,
+// is counted, and loses nothing else.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <condition_variable>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include "child_process.hpp"
+#include "locd/dds/convert.hpp"
+#include "locd/dds/topics.hpp"
+#include "test_env.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using locd::dds::QosProfile;
+
+constexpr auto kTimeout = 20s;
+constexpr size_t kMaxScanBeams = 400;
+
+struct Status {
+  std::string robot_id, plugin, message, last_error;
+  locd_msg_SessionState state = locd_msg_STATE_STARTING;
+  uint64_t request_id = 0;
+  bool request_ok = false;
+  uint64_t received = 0, used = 0, dropped = 0, rejected = 0, updates = 0;
+};
+
+std::string describe(const Status& s) {
+  return "robot " + s.robot_id + " state " + std::to_string(s.state) + " plugin '" + s.plugin + "' request " +
+         std::to_string(s.request_id) + (s.request_ok ? " ok" : " failed") + " message '" + s.message +
+         "' last_error '" + s.last_error + "' received " + std::to_string(s.received) + " used " +
+         std::to_string(s.used) + " dropped " + std::to_string(s.dropped) + " rejected " +
+         std::to_string(s.rejected) + " updates " + std::to_string(s.updates);
+}
+
+bool feature_ekf_built() { return fs::exists(fs::path(locd::test::plugin_dir()) / "liblocd_feature_ekf.so"); }
+
+// A locd child process on its own domain, and a robot-side participant talking to it.
+class LocdOverDds {
+ public:
+  explicit LocdOverDds(int domain) : domain_(domain) {
+    dir_ = fs::temp_directory_path() / ("locd_bad_input_" + std::to_string(::getpid()) + "_" + std::to_string(domain));
+    fs::create_directories(dir_);
+    std::ofstream(dir_ / "locd.yaml") << "server_id: bad-input-test-" << domain << "\n"
+                                      << "domain_id: " << domain << "\n"
+                                      << "plugin_directories: [" << locd::test::plugin_dir() << ", "
+                                      << LOCD_BROKEN_PLUGIN_DIR << "]\n"
+                                      << "map_directories: [" << locd::test::source_dir() << "/config/maps]\n"
+                                      << "status_period_s: 0.2\n"
+                                      << "queue_depth: 1000\n"
+                                      << "limits: {max_scan_beams: " << kMaxScanBeams << "}\n";
+    locd_ = std::make_unique<locd::test::ChildProcess>(
+        locd::test::binary_dir() + "/bin/locd", std::vector<std::string>{"--config", (dir_ / "locd.yaml").string()},
+        (dir_ / "locd.log").string());
+
+    participant_ = std::make_unique<locd::dds::Participant>(domain);
+    requests_ = locd::dds::Writer<locd_msg_SessionRequest>(*participant_, locd::topics::kSessionRequest, QosProfile::kState);
+    scans_ = locd::dds::Writer<locd_msg_LaserScan>(*participant_, locd::topics::kScan, QosProfile::kSensor);
+    odometry_ = locd::dds::Writer<locd_msg_Odometry>(*participant_, locd::topics::kOdometry, QosProfile::kSensor, 64);
+    statuses_ = locd::dds::Reader<locd_msg_SessionStatus>(
+        *participant_, locd::topics::kSessionStatus, QosProfile::kState, [this](const locd_msg_SessionStatus& m) {
+          Status s;
+          s.robot_id = locd::dds::to_string(m.robot_id);
+          s.plugin = locd::dds::to_string(m.plugin);
+          s.message = locd::dds::to_string(m.message);
+          s.last_error = locd::dds::to_string(m.last_error);
+          s.state = m.state;
+          s.request_id = m.request_id;
+          s.request_ok = m.request_ok;
+          s.received = m.received;
+          s.used = m.used;
+          s.dropped = m.dropped;
+          s.rejected = m.rejected;
+          s.updates = m.updates;
+          std::lock_guard<std::mutex> lock(mutex_);
+          history_.push_back(s);
+          changed_.notify_all();
+        });
+    poses_ = locd::dds::Reader<locd_msg_PoseEstimate>(
+        *participant_, locd::topics::kPose, QosProfile::kPose, [this](const locd_msg_PoseEstimate& m) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          pose_stamps_[locd::dds::to_string(m.robot_id)].push_back(m.header.stamp_ns);
+          changed_.notify_all();
+        });
+    // Discovery: the server's readers and writers match ours.
+    const auto deadline = std::chrono::steady_clock::now() + kTimeout;
+    while (requests_.matched() == 0 || scans_.matched() == 0 || odometry_.matched() == 0 || statuses_.matched() == 0) {
+      if (std::chrono::steady_clock::now() > deadline || !locd_->running()) {
+        throw std::runtime_error("locd did not come up on domain " + std::to_string(domain) + ":\n" + locd_->output());
+      }
+      std::this_thread::sleep_for(10ms);
+    }
+  }
+
+  ~LocdOverDds() {
+    statuses_ = {};
+    poses_ = {};
+    if (locd_->running()) {
+      locd_->signal(SIGTERM);
+      locd_->wait(10s);
+    }
+    std::error_code ec;
+    if (!::testing::Test::HasFailure()) fs::remove_all(dir_, ec);
+  }
+
+  // Sends a request and waits for its outcome on the status topic.
+  Status request(const std::string& robot, uint64_t id, const std::string& plugin, const std::string& yaml,
+                 locd_msg_SessionAction action = locd_msg_SESSION_START) {
+    auto sample = std::make_unique<locd_msg_SessionRequest>();
+    std::memset(sample.get(), 0, sizeof(locd_msg_SessionRequest));
+    locd::dds::copy_string(sample->robot_id, robot);
+    sample->request_id = id;
+    sample->action = action;
+    locd::dds::copy_string(sample->plugin, plugin);
+    locd::dds::copy_string(sample->config_yaml, yaml);
+    requests_.write(*sample);
+    return wait_status(robot, [id](const Status& s) { return s.request_id == id && s.state != locd_msg_STATE_STARTING; });
+  }
+
+  // Waits for a status of `robot` matching `pred`; fails the test with the last one seen.
+  Status wait_status(const std::string& robot, const std::function<bool(const Status&)>& pred) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    std::optional<Status> found;
+    const bool ok = changed_.wait_for(lock, kTimeout, [&] {
+      for (auto it = history_.rbegin(); it != history_.rend(); ++it) {
+        if (it->robot_id == robot && pred(*it)) {
+          found = *it;
+          return true;
+        }
+      }
+      return false;
+    });
+    if (!ok) {
+      std::string last = "(none)";
+      for (auto it = history_.rbegin(); it != history_.rend(); ++it) {
+        if (it->robot_id == robot) {
+          last = describe(*it);
+          break;
+        }
+      }
+      ADD_FAILURE() << "no matching status for " << robot << "; last: " << last << "\nlocd log:\n" << locd_->output();
+      return {};
+    }
+    return *found;
+  }
+
+  size_t poses(const std::string& robot) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return pose_stamps_[robot].size();
+  }
+  std::vector<int64_t> pose_stamps(const std::string& robot) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return pose_stamps_[robot];
+  }
+  bool wait_poses(const std::string& robot, size_t count) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    return changed_.wait_for(lock, kTimeout, [&] { return pose_stamps_[robot].size() >= count; });
+  }
+
+  void send_scan(const std::string& robot, int64_t stamp, std::vector<float> ranges) {
+    locd::LaserScan scan;
+    scan.header = {stamp, "laser"};
+    scan.angle_min = static_cast<float>(-M_PI / 2);
+    scan.angle_increment = ranges.size() > 1 ? static_cast<float>(M_PI / (ranges.size() - 1)) : 0.01f;
+    scan.range_min = 0.05f;
+    scan.range_max = 30.0f;
+    scan.ranges = std::move(ranges);
+    locd::dds::write(scans_, robot, scan);
+  }
+  void send_odometry(const std::string& robot, int64_t stamp, double x) {
+    locd::Odometry odometry;
+    odometry.header = {stamp, "odom"};
+    odometry.pose.translation() = Eigen::Vector3d(x, 0.0, 0.0);
+    odometry.linear_velocity = Eigen::Vector3d(0.5, 0.0, 0.0);
+    locd::dds::write(odometry_, robot, odometry);
+  }
+
+  locd::test::ChildProcess& locd() { return *locd_; }
+
+ private:
+  int domain_;
+  fs::path dir_;
+  std::unique_ptr<locd::test::ChildProcess> locd_;
+  std::unique_ptr<locd::dds::Participant> participant_;
+  locd::dds::Writer<locd_msg_SessionRequest> requests_;
+  locd::dds::Writer<locd_msg_LaserScan> scans_;
+  locd::dds::Writer<locd_msg_Odometry> odometry_;
+  locd::dds::Reader<locd_msg_SessionStatus> statuses_;
+  locd::dds::Reader<locd_msg_PoseEstimate> poses_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::vector<Status> history_;
+  std::map<std::string, std::vector<int64_t>> pose_stamps_;
+};
+
+const std::string kFixtureConfig = "plugin: fixture_odometry\nparams:\n  position_stddev: 0.1\n";
+const std::string kFeatureEkfConfig = "plugin: feature_ekf\nparams:\n  map: corridor.yaml\n";
+
+#define EXPECT_CONTAINS(text, part) EXPECT_NE((text).find(part), std::string::npos) << "'" << (part) << "' not in: " << (text)
+
+TEST(ServerBadInput, MalformedYamlNamesLineAndColumn) {
+  LocdOverDds locd(50);
+  const auto s = locd.request("robot_yaml", 1, "", "plugin: fixture_odometry\nparams:\n  position_stddev: [0.1\n");
+  EXPECT_FALSE(s.request_ok);
+  EXPECT_EQ(s.state, locd_msg_STATE_ERROR);
+  EXPECT_CONTAINS(s.message, "malformed YAML at line 4, column 1");
+  EXPECT_CONTAINS(s.message, "session request 1 for robot 'robot_yaml'");
+}
+
+TEST(ServerBadInput, UnknownPluginListsTheKnownOnes) {
+  LocdOverDds locd(51);
+  const auto s = locd.request("robot_unknown", 1, "", "plugin: particle_magic\n");
+  EXPECT_FALSE(s.request_ok);
+  EXPECT_CONTAINS(s.message, "unknown plugin 'particle_magic'; known plugins: ");
+  EXPECT_CONTAINS(s.message, "fixture_odometry");
+  if (feature_ekf_built()) EXPECT_CONTAINS(s.message, "feature_ekf");
+}
+
+TEST(ServerBadInput, PathAsPluginNameIsRefused) {
+  LocdOverDds locd(52);
+  auto s = locd.request("robot_path", 1, "../../tmp/liblocd_evil.so", kFixtureConfig);
+  EXPECT_FALSE(s.request_ok);
+  EXPECT_CONTAINS(s.message, "plugin must be a name, not a path");
+  s = locd.request("robot_path", 2, "", "plugin: /tmp/liblocd_evil.so\n");
+  EXPECT_FALSE(s.request_ok);
+  EXPECT_CONTAINS(s.message, "plugin '/tmp/liblocd_evil.so': plugin must be a name, not a path");
+}
+
+TEST(ServerBadInput, MapOutsideTheMapDirectoriesIsRefusedNamingTheFile) {
+  if (!feature_ekf_built()) GTEST_SKIP() << "needs build/plugins/liblocd_feature_ekf.so";
+  LocdOverDds locd(53);
+  auto s = locd.request("robot_map", 1, "", "plugin: feature_ekf\nparams:\n  map: ../../etc/passwd\n");
+  EXPECT_FALSE(s.request_ok);
+  EXPECT_CONTAINS(s.message, "map file '../../etc/passwd' contains '..'");
+  s = locd.request("robot_map", 2, "", "plugin: feature_ekf\nparams:\n  map: /etc/passwd\n");
+  EXPECT_FALSE(s.request_ok);
+  EXPECT_CONTAINS(s.message, "map file '/etc/passwd' is an absolute path");
+  s = locd.request("robot_map", 3, "", "plugin: feature_ekf\nparams:\n  map: no_such_map.yaml\n");
+  EXPECT_FALSE(s.request_ok);
+  EXPECT_CONTAINS(s.message, "map file 'no_such_map.yaml' not found in the map directories");
+}
+
+TEST(ServerBadInput, ParameterOutOfRangeNamesKeyAndAllowedRange) {
+  if (!feature_ekf_built()) GTEST_SKIP() << "needs build/plugins/liblocd_feature_ekf.so";
+  LocdOverDds locd(54);
+  const auto s = locd.request("robot_param", 1, "",
+                              "plugin: feature_ekf\nparams:\n  map: corridor.yaml\n  motion:\n"
+                              "    speed_stddev_per_speed: -0.5\n");
+  EXPECT_FALSE(s.request_ok);
+  EXPECT_CONTAINS(s.message, "parameter 'feature_ekf.motion.speed_stddev_per_speed' (line 5, column 29) = -0.5 "
+                             "is out of range; allowed: [0, inf]");
+}
+
+TEST(ServerBadInput, MessageForARobotWithoutSessionIsAnswered) {
+  LocdOverDds locd(55);
+  locd.send_scan("robot_ghost", 1000, std::vector<float>(100, 2.0f));
+  const auto s = locd.wait_status("robot_ghost", [](const Status& st) { return st.state == locd_msg_STATE_NO_SESSION; });
+  EXPECT_CONTAINS(s.last_error, "no session for robot 'robot_ghost': message on locd/scan ignored");
+  EXPECT_CONTAINS(s.last_error, "send a session request on locd/session_request");
+  EXPECT_GE(s.received, 1u);
+  EXPECT_EQ(s.received, s.rejected);
+}
+
+TEST(ServerBadInput, OversizedScanIsRejectedBeforeConversion) {
+  LocdOverDds locd(56);
+  ASSERT_TRUE(locd.request("robot_big", 1, "", kFixtureConfig).request_ok);
+  locd.send_scan("robot_big", 1000, std::vector<float>(kMaxScanBeams + 1, 2.0f));
+  const auto s = locd.wait_status("robot_big", [](const Status& st) { return st.rejected == 1; });
+  EXPECT_CONTAINS(s.last_error, "locd/scan");
+  EXPECT_CONTAINS(s.last_error, "401 beams exceed the limit max_scan_beams = 400");
+  EXPECT_EQ(s.received, 1u);
+  EXPECT_EQ(s.used, 0u);
+}
+
+TEST(ServerBadInput, EmptyAndAllNanScansAreRejected) {
+  LocdOverDds locd(57);
+  ASSERT_TRUE(locd.request("robot_nan", 1, "", kFixtureConfig).request_ok);
+  locd.send_scan("robot_nan", 1000, {});
+  auto s = locd.wait_status("robot_nan", [](const Status& st) { return st.rejected == 1; });
+  EXPECT_CONTAINS(s.last_error, "locd/scan: scan: empty (0 beams)");
+  locd.send_scan("robot_nan", 2000, std::vector<float>(50, std::numeric_limits<float>::quiet_NaN()));
+  s = locd.wait_status("robot_nan", [](const Status& st) { return st.rejected == 2; });
+  EXPECT_CONTAINS(s.last_error, "no beam has a finite range");
+  std::vector<float> infinite(50, std::numeric_limits<float>::infinity());
+  locd.send_scan("robot_nan", 3000, infinite);
+  s = locd.wait_status("robot_nan", [](const Status& st) { return st.rejected == 3; });
+  EXPECT_EQ(s.received, 3u);
+  EXPECT_EQ(s.used, 0u);
+}
+
+TEST(ServerBadInput, StampsGoingBackwardsAreRejectedAndNamed) {
+  LocdOverDds locd(58);
+  ASSERT_TRUE(locd.request("robot_time", 1, "", kFixtureConfig).request_ok);
+  locd.send_odometry("robot_time", 1300, 0.0);
+  locd.send_odometry("robot_time", 1200, 0.1);
+  locd.send_odometry("robot_time", 1400, 0.2);
+  const auto s = locd.wait_status("robot_time", [](const Status& st) { return st.used + st.rejected == 3; });
+  EXPECT_EQ(s.rejected, 1u);
+  EXPECT_EQ(s.used, 2u);
+  EXPECT_EQ(s.last_error, "stamp going backwards on locd/odometry: 1200 < 1300 ns");
+  ASSERT_TRUE(locd.wait_poses("robot_time", 2));
+  EXPECT_EQ(locd.pose_stamps("robot_time"), (std::vector<int64_t>{1300, 1400}));
+}
+
+// Every bad input above against one server, then a good session on another robot: it runs and
+// its counters are exact; the server stays up.
+TEST(ServerBadInput, AfterAllBadInputAGoodSessionStillRuns) {
+  LocdOverDds locd(59);
+  locd.request("bad", 1, "", "plugin: [unclosed\n");
+  locd.request("bad", 2, "", "plugin: particle_magic\n");
+  locd.request("bad", 3, "/tmp/evil.so", kFixtureConfig);
+  locd.request("bad", 4, "", "plugin: broken_configure_throws\n");
+  locd.send_scan("nobody", 10, std::vector<float>(10, 1.0f));
+  ASSERT_TRUE(locd.request("bad", 5, "", kFixtureConfig).request_ok);
+  locd.send_scan("bad", 100, std::vector<float>(kMaxScanBeams * 2, 1.0f));
+  locd.send_scan("bad", 200, {});
+  locd.send_scan("bad", 300, std::vector<float>(20, std::numeric_limits<float>::quiet_NaN()));
+  locd.send_odometry("bad", 500, 0.0);
+  locd.send_odometry("bad", 400, 0.0);
+  const auto bad = locd.wait_status("bad", [](const Status& s) { return s.used + s.rejected == 5; });
+  EXPECT_EQ(bad.rejected, 4u) << describe(bad);
+
+  const bool real_plugin = feature_ekf_built();
+  const std::string robot = "good";
+  ASSERT_TRUE(locd.request(robot, 1, "", real_plugin ? kFeatureEkfConfig : kFixtureConfig).request_ok);
+  constexpr int kSteps = 25;
+  constexpr int64_t kPeriod = 40'000'000;  // 25 Hz
+  for (int k = 1; k <= kSteps; ++k) {
+    locd.send_odometry(robot, k * kPeriod, 0.01 * k);
+    std::vector<float> ranges(181);
+    for (size_t i = 0; i < ranges.size(); ++i) ranges[i] = 1.0f + 0.001f * static_cast<float>(i);
+    locd.send_scan(robot, k * kPeriod + 1'000'000, ranges);
+  }
+  const auto good = locd.wait_status(robot, [](const Status& s) { return s.used + s.rejected + s.dropped == 2 * kSteps; });
+  EXPECT_EQ(good.received, 2u * kSteps) << describe(good);
+  EXPECT_EQ(good.used, 2u * kSteps) << describe(good);
+  EXPECT_EQ(good.rejected, 0u) << describe(good);
+  EXPECT_EQ(good.dropped, 0u) << describe(good);
+  // feature_ekf publishes a pose per scan; the fixture one per odometry message.
+  EXPECT_EQ(good.updates, static_cast<uint64_t>(kSteps)) << describe(good);
+  EXPECT_EQ(good.plugin, real_plugin ? "feature_ekf" : "fixture_odometry");
+  EXPECT_TRUE(locd.wait_poses(robot, kSteps));
+  EXPECT_TRUE(locd.locd().running());
+  locd.locd().signal(SIGTERM);
+  EXPECT_EQ(locd.locd().wait(10s), 0);
+  EXPECT_CONTAINS(locd.locd().output(), "stopped");
+}
+
+}  // namespace

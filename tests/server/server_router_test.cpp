@@ -1,0 +1,172 @@
+// The session router without DDS: requests through the real loader and the fixture plugins,
+// bad requests answered on the status, messages for robots without a session, a plugin
+// switch at run time and a failed switch that keeps the running plugin.
+#include <gtest/gtest.h>
+
+#include "locd/server/server.hpp"
+#include "recording_sink.hpp"
+
+namespace {
+
+using namespace locd;
+using namespace locd::server;
+using locd::server::test::RecordingSink;
+
+class ServerRouterTest : public ::testing::Test {
+ protected:
+  ServerRouterTest() : catalog_({LOCD_BROKEN_PLUGIN_DIR}) {
+    config_.server_id = "router-test";
+    config_.queue_depth = 32;
+    logger_.set_level(LogLevel::kError);
+    server_ = std::make_unique<Server>(config_, catalog_, sink_, logger_);
+  }
+  ~ServerRouterTest() override { server_->shutdown(); }
+
+  SessionStatusReport request(const std::string& robot, uint64_t id, const std::string& plugin, const std::string& yaml) {
+    server_->on_session_request({robot, id, false, plugin, yaml});
+    auto status = sink_.wait_status(robot, [&](const SessionStatusReport& s) { return s.request_id == id; });
+    EXPECT_TRUE(status.has_value()) << "no status for request " << id;
+    return status.value_or(SessionStatusReport{});
+  }
+  static Odometry odometry(int64_t stamp, double x) {
+    Odometry o;
+    o.header.stamp_ns = stamp;
+    o.pose.translation() = Eigen::Vector3d(x, 0.0, 0.0);
+    return o;
+  }
+
+  ServerConfig config_;
+  PluginCatalog catalog_;
+  RecordingSink sink_;
+  Logger logger_;
+  std::unique_ptr<Server> server_;
+};
+
+TEST_F(ServerRouterTest, ServerInfoListsPluginsAndRefusedFiles) {
+  server_->boot();
+  const auto infos = sink_.infos();
+  ASSERT_EQ(infos.size(), 1u);
+  EXPECT_EQ(infos[0].server_id, "router-test");
+  ASSERT_EQ(infos[0].plugins.size(), 3u);
+  EXPECT_EQ(infos[0].plugins[2].name, "fixture_odometry");
+  EXPECT_EQ(infos[0].plugins[2].consumes, (std::vector<std::string>{"odometry", "scan"}));
+  EXPECT_EQ(infos[0].rejected_plugins.size(), 4u);
+}
+
+TEST_F(ServerRouterTest, GoodRequestRunsAndPublishesPosesStampedWithTheMeasurement) {
+  const auto status = request("r1", 1, "", "plugin: fixture_odometry\nparams: {position_stddev: 0.2}\n");
+  EXPECT_TRUE(status.request_ok) << status.message;
+  EXPECT_EQ(status.state, SessionState::kRunning);
+  EXPECT_EQ(status.plugin, "fixture_odometry");
+  server_->on_measurement("r1", odometry(1000, 0.5));
+  ASSERT_TRUE(sink_.wait_for([](const auto&, const auto& outputs) {
+    return !outputs.empty() && outputs.back().result.estimate.has_value();
+  }));
+  const auto out = sink_.outputs().back();
+  EXPECT_EQ(out.robot_id, "r1");
+  EXPECT_EQ(out.plugin, "fixture_odometry");
+  EXPECT_EQ(out.result.estimate->header.stamp_ns, 1000);
+}
+
+TEST_F(ServerRouterTest, BadRequestsAreAnsweredWithClearErrors) {
+  auto s = request("r2", 1, "", "plugin: fixture_odometry\nparams: {position_stddev: [1\n");
+  EXPECT_FALSE(s.request_ok);
+  EXPECT_EQ(s.state, SessionState::kError);
+  EXPECT_NE(s.message.find("malformed YAML at line 3, column 1"), std::string::npos) << s.message;
+
+  s = request("r2", 2, "", "plugin: no_such_plugin\n");
+  EXPECT_NE(s.message.find("unknown plugin 'no_such_plugin'; known plugins: broken_configure_throws, "
+                           "broken_factory_throws, fixture_odometry"),
+            std::string::npos)
+      << s.message;
+
+  s = request("r2", 3, "/tmp/evil.so", "plugin: fixture_odometry\n");
+  EXPECT_NE(s.message.find("plugin must be a name, not a path"), std::string::npos) << s.message;
+
+  s = request("r2", 4, "", "plugin: ../plugins/liblocd_fixture_odometry.so\n");
+  EXPECT_NE(s.message.find("plugin must be a name, not a path"), std::string::npos) << s.message;
+
+  s = request("r2", 5, "", "plugin: fixture_odometry\nparams: {position_stddev: -1}\n");
+  EXPECT_NE(s.message.find("parameter 'fixture_odometry.position_stddev' (line 2, column 27) = -1 is out of range; "
+                           "allowed: (0, inf]"),
+            std::string::npos)
+      << s.message;
+
+  s = request("r2", 6, "broken_factory_throws", "plugin: fixture_odometry\n");
+  EXPECT_NE(s.message.find("differs from the config's plugin 'fixture_odometry'"), std::string::npos) << s.message;
+
+  s = request("r2", 7, "", "plugin: fixture_odometry\nextra: 1\n");
+  EXPECT_NE(s.message.find("unknown parameter 'extra'"), std::string::npos) << s.message;
+
+  // None of these left a session behind: a message for r2 is answered as "no session".
+  EXPECT_EQ(server_->find("r2"), nullptr);
+}
+
+TEST_F(ServerRouterTest, MessageForARobotWithoutSessionIsAnsweredOncePerSecondAndCounted) {
+  server_->on_measurement("ghost", odometry(1, 0.0));
+  server_->on_measurement("ghost", odometry(2, 0.0));
+  const auto s = sink_.wait_status("ghost", [](const auto& st) { return st.state == SessionState::kNoSession; });
+  ASSERT_TRUE(s.has_value());
+  EXPECT_NE(s->last_error.find("no session for robot 'ghost': message on locd/odometry ignored"), std::string::npos);
+  EXPECT_NE(s->last_error.find("send a session request on locd/session_request"), std::string::npos);
+  EXPECT_EQ(server_->messages_without_session(), 2u);
+  int reports = 0;
+  sink_.wait_for([&](const auto& statuses, const auto&) {
+    reports = 0;
+    for (const auto& st : statuses) reports += st.robot_id == "ghost";
+    return true;
+  });
+  EXPECT_EQ(reports, 1);
+}
+
+TEST_F(ServerRouterTest, SwitchAtRunTimeHandsOverThePoseAndAFailedSwitchKeepsThePlugin) {
+  ASSERT_TRUE(request("r3", 1, "fixture_odometry", "plugin: fixture_odometry\n").request_ok);
+  PoseEstimate initial;
+  initial.pose.translation() = Eigen::Vector3d(10.0, 0.0, 0.0);
+  server_->on_initial_pose("r3", initial);
+  server_->on_measurement("r3", odometry(100, 3.0));  // anchored at the initial pose: map x = 10
+  ASSERT_TRUE(sink_.wait_for([](const auto&, const auto& outputs) { return !outputs.empty() && outputs.back().result.estimate; }));
+  EXPECT_NEAR(sink_.outputs().back().result.estimate->pose.translation().x(), 10.0, 1e-9);
+
+  // Failing switch: configure throws. The old plugin keeps running.
+  auto s = request("r3", 2, "", "plugin: broken_configure_throws\n");
+  EXPECT_FALSE(s.request_ok);
+  EXPECT_EQ(s.state, SessionState::kRunning);
+  EXPECT_EQ(s.plugin, "fixture_odometry");
+  EXPECT_NE(s.message.find("configure of broken_configure_throws failed on purpose"), std::string::npos) << s.message;
+
+  // Good switch to a new fixture instance: it starts from the handed-over pose x = 10 and adds
+  // odometry motion from there (odometry x 3 -> 5 gives map x 12).
+  s = request("r3", 3, "", "plugin: fixture_odometry\nparams: {position_stddev: 0.5}\n");
+  EXPECT_TRUE(s.request_ok) << s.message;
+  server_->on_measurement("r3", odometry(200, 3.0));
+  server_->on_measurement("r3", odometry(300, 5.0));
+  ASSERT_TRUE(sink_.wait_for([](const auto&, const auto& outputs) {
+    return !outputs.empty() && outputs.back().result.estimate && outputs.back().result.estimate->header.stamp_ns == 300;
+  }));
+  const auto last = sink_.outputs().back().result.estimate;
+  EXPECT_NEAR(last->pose.translation().x(), 12.0, 1e-9);
+  EXPECT_NEAR(last->covariance(0, 0), 0.25, 1e-12);  // the new instance's stddev 0.5
+  const auto counters = server_->find("r3")->status().counters;
+  EXPECT_EQ(counters.received, 3u);
+  EXPECT_EQ(counters.used, 3u);
+  EXPECT_EQ(counters.updates, 3u);
+}
+
+TEST_F(ServerRouterTest, BadInputForASessionIsCountedAndNamed) {
+  ASSERT_TRUE(request("r4", 1, "", "plugin: fixture_odometry\n").request_ok);
+  server_->on_bad_input("r4", "locd/scan", "scan: 9000 beams exceed the limit max_scan_beams = 8192");
+  const auto s = server_->find("r4")->status();
+  EXPECT_EQ(s.counters.received, 1u);
+  EXPECT_EQ(s.counters.rejected, 1u);
+  EXPECT_EQ(s.last_error, "rejected message on locd/scan: scan: 9000 beams exceed the limit max_scan_beams = 8192");
+}
+
+TEST_F(ServerRouterTest, StopEndsTheSession) {
+  ASSERT_TRUE(request("r5", 1, "", "plugin: fixture_odometry\n").request_ok);
+  server_->on_session_request({"r5", 2, true, "", ""});
+  ASSERT_TRUE(sink_.wait_status("r5", [](const auto& s) { return s.state == SessionState::kStopped; }));
+  EXPECT_EQ(server_->find("r5"), nullptr);
+}
+
+}  // namespace
