@@ -1,5 +1,6 @@
 #include "locd/sim_icp_explorer/scanner3d.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace locd::sim {

@@ -4,6 +4,8 @@
 #include <deque>
 #include <map>
 
+#include "locd/sdk/geometry.hpp"
+
 namespace locd::sim {
 
 namespace {

@@ -1,0 +1,59 @@
+// The global model: a voxel map in the map frame. Each voxel keeps the running centroid and mean
+// intensity of every point that fell in it; a kd-tree (nanoflann) over the centroids answers
+// nearest-neighbour queries, and each centroid has a normal from its k nearest neighbours (for
+// point-to-plane ICP). Inserting a scan rebuilds the tree and refreshes the touched normals.
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <unordered_map>
+#include <vector>
+
+#include "locd/icp_explorer/scan_points.hpp"
+#include "locd/icp_explorer/voxel_key.hpp"
+
+namespace locd::icp_explorer {
+
+class VoxelMap {
+ public:
+  explicit VoxelMap(double voxel_size, int normal_neighbours = 10);
+  ~VoxelMap();
+  VoxelMap(VoxelMap&&) noexcept;
+  VoxelMap& operator=(VoxelMap&&) noexcept;
+
+  void insert(const ScanPoints& points_in_map);
+  void clear();
+
+  bool empty() const { return points_.empty(); }
+  size_t size() const { return points_.size(); }
+  double voxel_size() const { return voxel_size_; }
+  const std::vector<Eigen::Vector3d>& points() const { return points_; }
+  const std::vector<Eigen::Vector3d>& normals() const { return normals_; }  // unit; zero when undefined
+  const std::vector<float>& intensity() const { return intensity_; }       // NaN where no intensity came
+  bool has_intensity(size_t i) const { return intensity_count_[i] > 0; }
+
+  // Nearest centroid to q: false when the map is empty.
+  bool nearest(const Eigen::Vector3d& q, size_t& index, double& distance2) const;
+
+  // The model thinned to one point per voxel of `voxel_size` (publishing, saving).
+  ScanPoints downsampled(double voxel_size) const;
+
+ private:
+  struct KdTree;
+  void refresh_normals(const std::vector<uint32_t>& touched);
+
+  double voxel_size_;
+  double inverse_voxel_size_;
+  int normal_neighbours_;
+  std::unordered_map<VoxelKey, uint32_t, VoxelKeyHash> index_;
+  std::vector<Eigen::Vector3d> sums_;
+  std::vector<int> counts_;
+  std::vector<double> intensity_sums_;
+  std::vector<int> intensity_count_;
+  std::vector<Eigen::Vector3d> points_;
+  std::vector<Eigen::Vector3d> normals_;
+  std::vector<float> intensity_;
+  std::unique_ptr<KdTree> tree_;
+};
+
+}  // namespace locd::icp_explorer

@@ -1,0 +1,230 @@
+#include "icp_explorer_localizer.hpp"
+
+#include <cmath>
+#include <system_error>
+
+namespace locd::icp_explorer {
+
+namespace {
+constexpr double kDegree = M_PI / 180.0;
+const Range kPositive = Range::positive();
+}  // namespace
+
+IcpExplorerConfig parse_config(const Params& p, const Limits& limits, MapOutputSettings& map_output) {
+  p.expect_only({"max_points", "scan_voxel_size", "map_voxel_size", "normal_neighbours", "icp", "rejection",
+                 "odometry_bound", "exploration", "map_output"});
+  IcpExplorerConfig c;
+  c.max_points = static_cast<size_t>(p.integer("max_points", static_cast<long>(std::min(c.max_points, limits.max_cloud_points)),
+                                               1, static_cast<long>(limits.max_cloud_points)));
+  c.scan_voxel_size = p.number("scan_voxel_size", c.scan_voxel_size, Range::closed(0.01, 5.0));
+  c.map_voxel_size = p.number("map_voxel_size", c.map_voxel_size, Range::closed(0.01, 2.0));
+  c.normal_neighbours = static_cast<int>(p.integer("normal_neighbours", c.normal_neighbours, 3, 64));
+
+  const Params icp = p.child("icp");
+  icp.expect_only({"metric", "max_iterations", "max_correspondence_distance", "kernel_scale", "initial_kernel_scale",
+                   "convergence_translation", "convergence_rotation"});
+  c.icp.metric = icp.text("metric", "point_to_plane", {"point_to_plane", "point_to_point"}) == "point_to_plane"
+                     ? IcpMetric::kPointToPlane
+                     : IcpMetric::kPointToPoint;
+  c.icp.max_iterations = static_cast<int>(icp.integer("max_iterations", c.icp.max_iterations, 1, 500));
+  c.icp.max_correspondence_distance =
+      icp.number("max_correspondence_distance", c.icp.max_correspondence_distance, Range{0.0, 50.0, true, false});
+  c.icp.kernel_scale = icp.number("kernel_scale", c.icp.kernel_scale, Range{0.0, 10.0, true, false});
+  c.icp.initial_kernel_scale = icp.number("initial_kernel_scale", c.icp.initial_kernel_scale, Range{0.0, 10.0, true, false});
+  c.icp.convergence_translation = icp.number("convergence_translation", c.icp.convergence_translation, Range::open(0.0, 1.0));
+  c.icp.convergence_rotation = icp.number("convergence_rotation", c.icp.convergence_rotation, Range::open(0.0, 1.0));
+
+  const Params rules = p.child("rejection");
+  rules.expect_only({"intensity", "overlap", "error_length", "error_direction", "intensity_threshold", "max_range"});
+  c.rejection.intensity = rules.flag("intensity", c.rejection.intensity);
+  c.rejection.overlap = rules.flag("overlap", c.rejection.overlap);
+  c.rejection.error_length = rules.flag("error_length", c.rejection.error_length);
+  c.rejection.error_direction = rules.flag("error_direction", c.rejection.error_direction);
+  c.rejection.intensity_threshold =
+      rules.number("intensity_threshold", c.rejection.intensity_threshold, Range{0.0, 1.0, true, false});
+  c.rejection.max_range = rules.number("max_range", c.rejection.max_range, Range{0.0, 500.0, true, false});
+
+  const Params bound = p.child("odometry_bound");
+  bound.expect_only({"forward", "lateral", "vertical", "yaw_deg", "tilt_deg", "margin"});
+  c.odometry_bound.forward = bound.number("forward", c.odometry_bound.forward, Range::closed(0.0, 20.0));
+  c.odometry_bound.lateral = bound.number("lateral", c.odometry_bound.lateral, Range::closed(0.0, 20.0));
+  c.odometry_bound.vertical = bound.number("vertical", c.odometry_bound.vertical, Range::closed(0.0, 5.0));
+  c.odometry_bound.yaw = bound.number("yaw_deg", c.odometry_bound.yaw / kDegree, Range::closed(0.0, 180.0)) * kDegree;
+  c.odometry_bound.tilt = bound.number("tilt_deg", c.odometry_bound.tilt / kDegree, Range::closed(0.0, 45.0)) * kDegree;
+  c.odometry_bound.margin = bound.number("margin", c.odometry_bound.margin, Range::closed(0.0, 5.0));
+
+  const Params e = p.child("exploration");
+  e.expect_only({"enabled", "origin", "size", "cell_size", "layer_height", "z_min", "z_max", "occupied_probability",
+                 "points_for_detection", "fill", "azimuth_step_deg", "elevation_step_deg", "elevation_min_deg",
+                 "elevation_max_deg", "sensor_height", "beta", "possibly_movable_weight", "robot_radius",
+                 "robot_height", "rays", "candidate_stride", "reliable_distance", "reliable_falloff",
+                 "overlap_distance", "direction_penalty", "memory_radius", "done_threshold"});
+  c.exploration = e.flag("enabled", c.exploration);
+  LayeredMapSettings& m = c.layered_map;
+  const auto origin = e.numbers("origin", {m.origin.x(), m.origin.y()}, 2, Range::closed(-1e5, 1e5));
+  const auto size = e.numbers("size", {m.size.x(), m.size.y()}, 2, Range{0.0, 1e4, true, false});
+  m.origin = {origin[0], origin[1]};
+  m.size = {size[0], size[1]};
+  m.cell_size = e.number("cell_size", m.cell_size, Range::closed(0.05, 5.0));
+  m.layer_height = e.number("layer_height", m.layer_height, Range::closed(0.05, 5.0));
+  m.z_min = e.number("z_min", m.z_min, Range::closed(-10.0, 50.0));
+  m.z_max = e.number("z_max", m.z_max, Range::closed(-10.0, 50.0));
+  if (m.z_max < m.z_min + m.layer_height)
+    e.fail("z_max", "must leave room for one layer above z_min (" + std::to_string(m.z_min) + " + layer_height)");
+  const double cells = std::ceil(m.size.x() / m.cell_size) * std::ceil(m.size.y() / m.cell_size) *
+                       std::floor((m.z_max - m.z_min) / m.layer_height);
+  if (c.exploration && cells > static_cast<double>(limits.max_map_cells))
+    e.fail("size", "gives " + std::to_string(static_cast<long long>(cells)) + " cubes; the server allows " +
+                       std::to_string(limits.max_map_cells) + " map cells");
+  m.occupied_probability = e.number("occupied_probability", m.occupied_probability, Range::open(0.0, 1.0));
+  m.points_for_detection = e.number("points_for_detection", m.points_for_detection, Range::closed(1.0, 1000.0));
+  m.fill = e.number("fill", m.fill, Range{0.0, 1.0, true, false});
+  m.azimuth_step = e.number("azimuth_step_deg", m.azimuth_step / kDegree, Range{0.0, 45.0, true, false}) * kDegree;
+  m.elevation_step = e.number("elevation_step_deg", m.elevation_step / kDegree, Range{0.0, 45.0, true, false}) * kDegree;
+  ExplorationSettings& x = c.planner;
+  x.elevation_min = e.number("elevation_min_deg", x.elevation_min / kDegree, Range::closed(-90.0, 90.0)) * kDegree;
+  x.elevation_max = e.number("elevation_max_deg", x.elevation_max / kDegree, Range::closed(-90.0, 90.0)) * kDegree;
+  if (x.elevation_max <= x.elevation_min) e.fail("elevation_max_deg", "must exceed elevation_min_deg");
+  x.sensor_height = e.number("sensor_height", x.sensor_height, Range::closed(0.0, 10.0));
+  x.max_range = c.rejection.max_range;
+  x.beta = e.number("beta", x.beta, Range::closed(0.0, 100.0));
+  x.possibly_movable_weight = e.number("possibly_movable_weight", x.possibly_movable_weight, Range::closed(0.0, 1.0));
+  x.robot_radius = e.number("robot_radius", x.robot_radius, Range::closed(0.0, 5.0));
+  x.robot_height = e.number("robot_height", x.robot_height, Range{0.0, 10.0, true, false});
+  x.rays = static_cast<int>(e.integer("rays", x.rays, 8, 3600));
+  x.candidate_stride = static_cast<int>(e.integer("candidate_stride", x.candidate_stride, 1, 100));
+  x.reliable_distance = e.number("reliable_distance", x.reliable_distance, Range::closed(0.0, 1000.0));
+  x.reliable_falloff = e.number("reliable_falloff", x.reliable_falloff, Range{0.0, 1000.0, true, false});
+  x.overlap_distance = e.number("overlap_distance", x.overlap_distance, Range{0.0, 100.0, true, false});
+  x.direction_penalty = e.number("direction_penalty", x.direction_penalty, Range{0.0, 1.0, false, true});
+  x.memory_radius = e.number("memory_radius", x.memory_radius, Range::closed(0.0, 1000.0));
+  x.done_threshold = e.number("done_threshold", x.done_threshold, Range::non_negative());
+
+  const Params out = p.child("map_output");
+  out.expect_only({"publish_every_scans", "publish_voxel_size", "save_directory", "save_format"});
+  map_output.publish_every_scans = static_cast<int>(out.integer("publish_every_scans", map_output.publish_every_scans, 0, 100000));
+  map_output.publish_voxel_size = out.number("publish_voxel_size", map_output.publish_voxel_size, Range::closed(0.01, 10.0));
+  const std::string directory = out.text("save_directory", "");
+  if (!directory.empty()) {
+    const std::filesystem::path dir(directory);
+    std::error_code ec;
+    if (!dir.is_absolute() || !std::filesystem::is_directory(dir, ec))
+      out.fail("save_directory", "must be an absolute path to an existing directory");
+    map_output.save_directory = std::filesystem::canonical(dir, ec);
+  }
+  map_output.save_format = out.text("save_format", "pcd", {"pcd", "ply"}) == "pcd" ? MapFileFormat::kPcd : MapFileFormat::kPly;
+  return c;
+}
+
+void IcpExplorerLocalizer::configure(const PluginContext& context, const Params& params) {
+  MapOutputSettings map_output;
+  const IcpExplorerConfig config = parse_config(params, context.limits, map_output);
+  context_ = context;
+  map_output_ = map_output;
+  explorer_ = std::make_unique<IcpExplorer>(config);
+}
+
+void IcpExplorerLocalizer::set_pose(const PoseEstimate& pose) {
+  if (!pose.pose.matrix().allFinite()) throw InputError("initial pose: non-finite values");
+  if (explorer_) explorer_->set_pose(pose.pose);
+}
+
+UpdateResult IcpExplorerLocalizer::update(const Measurement& measurement) {
+  if (!explorer_) throw InputError("icp_explorer: update before configure");
+  UpdateResult result;
+  if (const auto* odometry = std::get_if<Odometry>(&measurement)) {
+    explorer_->add_odometry(*odometry);
+    return result;
+  }
+  const auto* cloud = std::get_if<PointCloud>(&measurement);
+  if (!cloud) throw InputError(std::string("icp_explorer: consumes odometry and cloud, not ") + kind_name(kind_of(measurement)));
+  const ScanOutcome outcome = explorer_->add_scan(*cloud);
+  if (outcome.intensity_missing) {
+    if (clouds_without_intensity_++ == 0)
+      context_.log(LogLevel::kWarning, "icp_explorer: cloud without intensity; rejection rule (a) is off for such scans");
+  }
+  non_finite_points_ += outcome.non_finite_points;
+
+  PoseEstimate estimate;
+  estimate.header.stamp_ns = cloud->header.stamp_ns;
+  estimate.header.frame_id = "map";
+  estimate.pose = outcome.T_map_base;
+  estimate.covariance = outcome.covariance;
+  result.estimate = estimate;
+
+  auto& v = result.diagnostics.values;
+  const RegistrationResult& r = outcome.registration;
+  v.emplace_back("scans", static_cast<double>(explorer_->scans()));
+  v.emplace_back("registered", outcome.registered ? 1.0 : 0.0);
+  v.emplace_back("converged", r.converged ? 1.0 : 0.0);
+  v.emplace_back("iterations", r.iterations);
+  v.emplace_back("correspondences", static_cast<double>(r.correspondences));
+  v.emplace_back("rejected_intensity", static_cast<double>(r.counts[static_cast<size_t>(Rejection::kIntensity)]));
+  v.emplace_back("rejected_overlap", static_cast<double>(r.counts[static_cast<size_t>(Rejection::kOverlap)]));
+  v.emplace_back("rejected_error_length", static_cast<double>(r.counts[static_cast<size_t>(Rejection::kErrorLength)]));
+  v.emplace_back("rejected_error_direction",
+                 static_cast<double>(r.counts[static_cast<size_t>(Rejection::kErrorDirection)]));
+  v.emplace_back("beyond_correspondence_distance", static_cast<double>(r.beyond_distance));
+  v.emplace_back("rms_error_m", r.rms_error);
+  v.emplace_back("source_points", static_cast<double>(outcome.source_points));
+  v.emplace_back("non_finite_points", static_cast<double>(outcome.non_finite_points));
+  v.emplace_back("non_finite_points_total", static_cast<double>(non_finite_points_));
+  v.emplace_back("clouds_without_intensity", static_cast<double>(clouds_without_intensity_));
+  v.emplace_back("preprocess_ms", outcome.preprocess_ms);
+  v.emplace_back("registration_ms", outcome.registration_ms);
+  v.emplace_back("model_update_ms", outcome.model_update_ms);
+  v.emplace_back("planning_ms", outcome.planning_ms);
+  v.emplace_back("model_points", static_cast<double>(explorer_->model().size()));
+
+  if (outcome.exploration) {
+    const ExplorationDecision& d = *outcome.exploration;
+    ExplorationGoal goal;
+    goal.header = estimate.header;
+    goal.pose = Eigen::Isometry3d::Identity();
+    goal.pose.translation() = Eigen::Vector3d(d.goal.x(), d.goal.y(), 0.0);
+    goal.pose.linear() = Eigen::AngleAxisd(d.heading, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    goal.score = d.score;
+    goal.done = d.done;
+    result.exploration_goal = goal;
+    v.emplace_back("exploration_score", d.score);
+    v.emplace_back("exploration_done", d.done ? 1.0 : 0.0);
+    v.emplace_back("exploration_candidates", static_cast<double>(d.candidates));
+  }
+
+  if (map_output_.publish_every_scans > 0 && explorer_->scans() % map_output_.publish_every_scans == 0) {
+    const ScanPoints map = explorer_->model().downsampled(map_output_.publish_voxel_size);
+    PointCloud cloud_map;
+    cloud_map.header.stamp_ns = cloud->header.stamp_ns;
+    cloud_map.header.frame_id = "map";
+    cloud_map.points.reserve(map.size());
+    for (const auto& p : map.points) cloud_map.points.push_back(p.cast<float>());
+    bool any_intensity = false;
+    for (float i : map.intensity) any_intensity |= std::isfinite(i);
+    if (any_intensity)
+      for (float i : map.intensity) cloud_map.intensity.push_back(std::isfinite(i) ? i : 0.0f);
+    result.map_cloud = std::move(cloud_map);
+  }
+  return result;
+}
+
+std::string IcpExplorerLocalizer::save_map() {
+  if (!explorer_) throw InputError("icp_explorer: save_map before configure");
+  if (map_output_.save_directory.empty())
+    throw InputError("icp_explorer: map saving is disabled; set icp_explorer.map_output.save_directory in the config");
+  if (explorer_->model().empty()) throw InputError("icp_explorer: the map is empty (no scan yet)");
+  const auto file =
+      generated_map_file(map_output_.save_directory, context_.robot_id, explorer_->scans(), map_output_.save_format);
+  const ScanPoints map = explorer_->model().downsampled(explorer_->model().voxel_size());
+  try {
+    if (map_output_.save_format == MapFileFormat::kPcd)
+      write_pcd(file, map);
+    else
+      write_ply(file, map);
+  } catch (const std::exception& e) {
+    throw InputError(std::string("icp_explorer: saving the map failed: ") + e.what());
+  }
+  context_.log(LogLevel::kInfo, "icp_explorer: map saved to " + file.string());
+  return file.string();
+}
+
+}  // namespace locd::icp_explorer

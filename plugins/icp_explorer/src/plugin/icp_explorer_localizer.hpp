@@ -1,0 +1,42 @@
+// The icp_explorer plugin: locd::Localizer around IcpExplorer. configure() validates every
+// parameter (config/plugins/icp_explorer.yaml documents them) into IcpExplorerConfig; update()
+// keeps the latest odometry and turns each cloud into a pose, diagnostics, the registered map
+// (every publish_every_scans scans) and the exploration goal.
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "locd/icp_explorer/icp_explorer.hpp"
+#include "locd/icp_explorer/map_file.hpp"
+#include "locd/sdk/plugin.hpp"
+
+namespace locd::icp_explorer {
+
+struct MapOutputSettings {
+  int publish_every_scans = 1;        // 0 = never publish the map
+  double publish_voxel_size = 0.2;    // m
+  std::filesystem::path save_directory;  // empty: saving disabled
+  MapFileFormat save_format = MapFileFormat::kPcd;
+};
+
+// Parses the plugin's params (rooted at "icp_explorer"); limits bound max_points.
+IcpExplorerConfig parse_config(const Params& params, const Limits& limits, MapOutputSettings& map_output);
+
+class IcpExplorerLocalizer : public Localizer {
+ public:
+  void configure(const PluginContext& context, const Params& params) override;
+  void set_pose(const PoseEstimate& pose) override;
+  UpdateResult update(const Measurement& measurement) override;
+  std::string save_map() override;
+
+ private:
+  PluginContext context_;
+  MapOutputSettings map_output_;
+  std::unique_ptr<IcpExplorer> explorer_;
+  size_t clouds_without_intensity_ = 0;
+  size_t non_finite_points_ = 0;
+};
+
+}  // namespace locd::icp_explorer

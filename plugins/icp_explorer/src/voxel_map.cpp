@@ -1,0 +1,140 @@
+#include "locd/icp_explorer/voxel_map.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <limits>
+#include <nanoflann.hpp>
+
+namespace locd::icp_explorer {
+
+namespace {
+struct CentroidAdaptor {
+  const std::vector<Eigen::Vector3d>* points;
+  size_t kdtree_get_point_count() const { return points->size(); }
+  double kdtree_get_pt(size_t i, size_t dim) const { return (*points)[i][static_cast<int>(dim)]; }
+  template <class Box>
+  bool kdtree_get_bbox(Box&) const {
+    return false;
+  }
+};
+using CentroidTree =
+    nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, CentroidAdaptor>, CentroidAdaptor, 3,
+                                        uint32_t>;
+}  // namespace
+
+struct VoxelMap::KdTree {
+  CentroidAdaptor adaptor;
+  CentroidTree tree;
+  explicit KdTree(const std::vector<Eigen::Vector3d>* points)
+      : adaptor{points}, tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(12)) {}
+};
+
+VoxelMap::VoxelMap(double voxel_size, int normal_neighbours)
+    : voxel_size_(voxel_size), inverse_voxel_size_(1.0 / voxel_size), normal_neighbours_(normal_neighbours) {}
+VoxelMap::~VoxelMap() = default;
+VoxelMap::VoxelMap(VoxelMap&&) noexcept = default;
+VoxelMap& VoxelMap::operator=(VoxelMap&&) noexcept = default;
+
+void VoxelMap::clear() {
+  index_.clear();
+  sums_.clear();
+  counts_.clear();
+  intensity_sums_.clear();
+  intensity_count_.clear();
+  points_.clear();
+  normals_.clear();
+  intensity_.clear();
+  tree_.reset();
+}
+
+void VoxelMap::insert(const ScanPoints& scan) {
+  std::vector<uint32_t> touched;
+  touched.reserve(scan.size());
+  std::vector<char> was_touched(points_.size(), 0);
+  for (size_t i = 0; i < scan.size(); ++i) {
+    const Eigen::Vector3d& p = scan.points[i];
+    if (!p.allFinite()) continue;
+    const auto [it, inserted] = index_.try_emplace(voxel_key(p, inverse_voxel_size_), static_cast<uint32_t>(sums_.size()));
+    const uint32_t v = it->second;
+    if (inserted) {
+      sums_.push_back(Eigen::Vector3d::Zero());
+      counts_.push_back(0);
+      intensity_sums_.push_back(0.0);
+      intensity_count_.push_back(0);
+      points_.push_back(p);
+      normals_.push_back(Eigen::Vector3d::Zero());
+      intensity_.push_back(std::numeric_limits<float>::quiet_NaN());
+      was_touched.push_back(0);
+    }
+    sums_[v] += p;
+    ++counts_[v];
+    if (scan.has_intensity() && std::isfinite(scan.intensity[i])) {
+      intensity_sums_[v] += scan.intensity[i];
+      ++intensity_count_[v];
+      intensity_[v] = static_cast<float>(intensity_sums_[v] / intensity_count_[v]);
+    }
+    points_[v] = sums_[v] / counts_[v];
+    if (!was_touched[v]) {
+      was_touched[v] = 1;
+      touched.push_back(v);
+    }
+  }
+  tree_ = std::make_unique<KdTree>(&points_);
+  refresh_normals(touched);
+}
+
+void VoxelMap::refresh_normals(const std::vector<uint32_t>& touched) {
+  const size_t k = static_cast<size_t>(normal_neighbours_);
+  std::vector<uint32_t> indices(k);
+  std::vector<double> distances(k);
+  for (uint32_t v : touched) {
+    const size_t found = tree_->tree.knnSearch(points_[v].data(), k, indices.data(), distances.data());
+    if (found < 3) {
+      normals_[v].setZero();
+      continue;
+    }
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (size_t j = 0; j < found; ++j) mean += points_[indices[j]];
+    mean /= static_cast<double>(found);
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+    for (size_t j = 0; j < found; ++j) {
+      const Eigen::Vector3d d = points_[indices[j]] - mean;
+      covariance += d * d.transpose();
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
+    const Eigen::Vector3d eigenvalues = solver.eigenvalues();  // ascending
+    // A normal only where the neighbourhood is planar: smallest spread well below the others.
+    if (eigenvalues(1) <= 0.0 || eigenvalues(0) > 0.1 * eigenvalues(1)) {
+      normals_[v].setZero();
+      continue;
+    }
+    normals_[v] = solver.eigenvectors().col(0).normalized();
+  }
+}
+
+bool VoxelMap::nearest(const Eigen::Vector3d& q, size_t& index, double& distance2) const {
+  if (!tree_ || points_.empty()) return false;
+  uint32_t i = 0;
+  double d2 = 0.0;
+  nanoflann::KNNResultSet<double, uint32_t> result(1);
+  result.init(&i, &d2);
+  tree_->tree.findNeighbors(result, q.data(), nanoflann::SearchParams(10, 0.0f, false));
+  index = i;
+  distance2 = d2;
+  return true;
+}
+
+ScanPoints VoxelMap::downsampled(double voxel_size) const {
+  std::vector<Eigen::Vector3f> points;
+  points.reserve(points_.size());
+  std::vector<float> intensity;
+  intensity.reserve(points_.size());
+  for (size_t i = 0; i < points_.size(); ++i) {
+    points.push_back(points_[i].cast<float>());
+    intensity.push_back(intensity_[i]);
+  }
+  ScanPoints out = voxel_downsample(points, intensity, voxel_size);
+  return out;
+}
+
+}  // namespace locd::icp_explorer
