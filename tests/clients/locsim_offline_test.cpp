@@ -4,14 +4,14 @@
 #include <filesystem>
 
 #include "locd/sim/offline_runner.hpp"
-#include "test_env.hpp"
+#include "locsim_paths.hpp"
 
 namespace fs = std::filesystem;
 
 TEST(LocsimOffline, CorridorThroughFeatureEkfIsAccurate) {
-  const auto scenario = locd::sim::load_scenario(locd::test::source_dir() + "/config/scenarios/corridor.yaml");
+  const auto scenario = locd::sim::load_scenario(locd::sim::test::source_dir() + "/config/scenarios/corridor.yaml");
   locd::sim::OfflineRunOptions options;
-  options.plugin_directories = {locd::test::plugin_dir()};
+  options.plugin_directories = {locd::sim::test::plugin_dir()};
   options.duration_s = 30.0;
   const auto result = locd::sim::run_offline(scenario, options);
   EXPECT_EQ(result.plugin, "feature_ekf");
@@ -23,10 +23,10 @@ TEST(LocsimOffline, CorridorThroughFeatureEkfIsAccurate) {
 }
 
 TEST(LocsimOffline, UnknownPluginListsTheKnownOnes) {
-  auto scenario = locd::sim::load_scenario(locd::test::source_dir() + "/config/scenarios/corridor.yaml");
+  auto scenario = locd::sim::load_scenario(locd::sim::test::source_dir() + "/config/scenarios/corridor.yaml");
   scenario.localizer.plugin = "no_such_plugin";
   locd::sim::OfflineRunOptions options;
-  options.plugin_directories = {locd::test::plugin_dir()};
+  options.plugin_directories = {locd::sim::test::plugin_dir()};
   try {
     locd::sim::run_offline(scenario, options);
     FAIL() << "ran an unknown plugin";

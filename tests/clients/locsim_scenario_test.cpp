@@ -6,7 +6,7 @@
 
 #include "locd/sim/scenario.hpp"
 #include "locd/sim/simulation.hpp"
-#include "test_env.hpp"
+#include "locsim_paths.hpp"
 
 namespace fs = std::filesystem;
 using locd::ConfigError;
@@ -23,7 +23,7 @@ class ScenarioFiles : public ::testing::Test {
     fs::create_directories(root_ / "maps");
     fs::create_directories(root_ / "plugins");
     fs::create_directories(root_ / "scenarios");
-    fs::copy_file(locd::test::source_dir() + "/config/maps/corridor.yaml", root_ / "maps" / "corridor.yaml");
+    fs::copy_file(locd::sim::test::source_dir() + "/config/maps/corridor.yaml", root_ / "maps" / "corridor.yaml");
     std::ofstream(root_ / "plugins" / "ekf.yaml") << "plugin: feature_ekf\nparams:\n  map: corridor.yaml\n";
   }
   void TearDown() override { fs::remove_all(root_); }

@@ -4,7 +4,7 @@
 
 #include "locd/sdk/feature_map.hpp"
 #include "locd/sim/world.hpp"
-#include "test_env.hpp"
+#include "locsim_paths.hpp"
 
 using locd::sim::Segment;
 using locd::sim::SegmentWorld;
@@ -18,7 +18,8 @@ TEST(RaySegment, ExactDistanceAndMisses) {
   EXPECT_FALSE(locd::sim::ray_segment_distance(origin, Eigen::Vector2d(0, 1), wall));   // parallel
   EXPECT_FALSE(locd::sim::ray_segment_distance(origin, east, Segment{{2, 0.5}, {2, 1}}));  // passes below
   const Eigen::Vector2d diagonal = Eigen::Vector2d(1, 1).normalized();
-  EXPECT_NEAR(*locd::sim::ray_segment_distance(origin, diagonal, wall), std::sqrt(2.0), 1e-12);
+  EXPECT_FALSE(locd::sim::ray_segment_distance(origin, diagonal, wall));  // passes above its end (2, 1)
+  EXPECT_NEAR(*locd::sim::ray_segment_distance(origin, diagonal, Segment{{2, -1}, {2, 3}}), 2.0 * std::sqrt(2.0), 1e-12);
 }
 
 TEST(SegmentWorld, CastsInsideABoxGiveExactRanges) {
@@ -35,7 +36,7 @@ TEST(SegmentWorld, CastsInsideABoxGiveExactRanges) {
 }
 
 TEST(SegmentWorld, GridTraversalMatchesBruteForceOnTheCorridor) {
-  const auto map = locd::load_feature_map(locd::test::source_dir() + "/config/maps/corridor.yaml", 100000);
+  const auto map = locd::load_feature_map(locd::sim::test::source_dir() + "/config/maps/corridor.yaml", 100000);
   const SegmentWorld world = SegmentWorld::from_feature_map(map);
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> x(-2, 42), y(-2, 22), angle(-M_PI, M_PI);
@@ -56,7 +57,7 @@ TEST(SegmentWorld, GridTraversalMatchesBruteForceOnTheCorridor) {
 
 TEST(SegmentWorld, CorridorIsClosed) {
   // From anywhere on the corridor's centre line every direction hits a wall within 45 m.
-  const auto map = locd::load_feature_map(locd::test::source_dir() + "/config/maps/corridor.yaml", 100000);
+  const auto map = locd::load_feature_map(locd::sim::test::source_dir() + "/config/maps/corridor.yaml", 100000);
   const SegmentWorld world = SegmentWorld::from_feature_map(map);
   for (double x = 1; x <= 39; x += 0.7) {
     for (double a = -M_PI; a < M_PI; a += 0.01) {

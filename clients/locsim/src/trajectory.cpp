@@ -97,17 +97,13 @@ Trajectory Trajectory::generate(const RobotSpec& robot, double duration_s, doubl
     sample.angular_velocity = omega;
     trajectory.samples_.push_back(sample);
 
-    // Exact unicycle step with constant (v, omega) over dt.
-    if (std::abs(omega) > 1e-9) {
-      const double r = v / omega;
-      const double theta_next = pose.theta + omega * dt;
-      pose.x += r * (std::sin(theta_next) - std::sin(pose.theta));
-      pose.y += -r * (std::cos(theta_next) - std::cos(pose.theta));
-      pose.theta = normalize_angle(theta_next);
-    } else {
-      pose.x += v * dt * std::cos(pose.theta);
-      pose.y += v * dt * std::sin(pose.theta);
-    }
+    // Exact unicycle step with constant (v, omega) over dt: a chord of length
+    // v dt sin(omega dt / 2) / (omega dt / 2) along the mean heading (stable as omega -> 0).
+    const double half_turn = 0.5 * omega * dt;
+    const double chord = v * dt * (std::abs(half_turn) > 1e-9 ? std::sin(half_turn) / half_turn : 1.0);
+    pose.x += chord * std::cos(pose.theta + half_turn);
+    pose.y += chord * std::sin(pose.theta + half_turn);
+    pose.theta = normalize_angle(pose.theta + omega * dt);
     const double dv = std::clamp(v_target - v, -robot.max_acceleration * dt, robot.max_acceleration * dt);
     v += dv;
   }

@@ -1,0 +1,173 @@
+#include "locd/sim_emoi_markov/four_positions.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "locd/sdk/errors.hpp"
+#include "locd/sdk/plugin_config.hpp"
+
+namespace locd::sim::emoi {
+namespace fs = std::filesystem;
+
+FourPositionsScenario load_four_positions(const fs::path& file) {
+  const Params root = Params::load_file(file.string());
+  root.expect_only({"name", "seed", "runs", "world", "robot", "sensors", "localizer", "evaluation"});
+  FourPositionsScenario s;
+  s.name = root.text("name", "emoi_four_positions");
+  s.seed = static_cast<uint64_t>(root.integer("seed", 1, 0, 1L << 40));
+  s.runs = static_cast<int>(root.integer("runs", 20, 1, 10000));
+  const Params world = root.child("world");
+  s.world = parse_world(world);
+  s.dsm_noise_m = world.number("dsm_noise_m", s.dsm_noise_m, Range::closed(0.0, 10.0));
+  s.dsm_nodata_fraction = world.number("dsm_nodata_fraction", 0.0, Range::closed(0.0, 0.5));
+
+  const Params robot = root.child("robot");
+  robot.expect_only({"id", "path", "speed_mps", "base_height_m"});
+  s.robot_id = robot.text("id", s.robot_id);
+  const YAML::Node path = robot.node()["path"];
+  if (!path || !path.IsSequence() || path.size() < 2) robot.fail("path", "must be a list of at least two [x, y] points");
+  for (const auto& point : path) {
+    if (!point.IsSequence() || point.size() != 2) robot.fail("path", "holds an entry that is not [x, y]");
+    const Eigen::Vector2d p(point[0].as<double>(), point[1].as<double>());
+    if (p.x() < 0 || p.y() < 0 || p.x() > s.world.size_x_m || p.y() > s.world.size_y_m) {
+      robot.fail("path", "point [" + std::to_string(p.x()) + ", " + std::to_string(p.y()) +
+                             "] lies outside the world [0, size_m]");
+    }
+    s.path.push_back(p);
+  }
+  s.speed_mps = robot.number("speed_mps", s.speed_mps, Range::open(0.0, 50.0));
+  s.base_height_m = robot.number("base_height_m", s.base_height_m, Range::closed(0.0, 5.0));
+
+  const Params sensors = root.child("sensors");
+  sensors.expect_only({"laser", "odometry", "imu"});
+  s.laser = parse_laser(sensors.child("laser"));
+  const Params odometry = sensors.child("odometry");
+  odometry.expect_only({"rate_hz", "scale_stddev", "drift_stddev_rad", "yaw_rate_stddev"});
+  s.odometry_rate_hz = odometry.number("rate_hz", s.odometry_rate_hz, Range::open(0.0, 1000.0));
+  s.odometry.scale_stddev = odometry.number("scale_stddev", s.odometry.scale_stddev, Range::closed(0.0, 1.0));
+  s.odometry.drift_stddev_rad = odometry.number("drift_stddev_rad", s.odometry.drift_stddev_rad, Range::closed(0.0, 1.0));
+  s.odometry.yaw_rate_stddev = odometry.number("yaw_rate_stddev", s.odometry.yaw_rate_stddev, Range::closed(0.0, 1.0));
+  const Params imu = sensors.child("imu");
+  imu.expect_only({"rate_hz", "yaw_stddev_rad", "tilt_stddev_rad"});
+  s.imu_rate_hz = imu.number("rate_hz", s.imu_rate_hz, Range::open(0.0, 1000.0));
+  s.imu.yaw_stddev_rad = imu.number("yaw_stddev_rad", s.imu.yaw_stddev_rad, Range::closed(0.0, 1.0));
+  s.imu.tilt_stddev_rad = imu.number("tilt_stddev_rad", s.imu.tilt_stddev_rad, Range::closed(0.0, 1.0));
+
+  const Params localizer = root.child("localizer");
+  localizer.expect_only({"config_file"});
+  const std::string config_name = localizer.required_text("config_file");
+  s.localizer_config_file = fs::path(config_name).is_absolute() ? fs::path(config_name) : file.parent_path() / config_name;
+  std::ifstream in(s.localizer_config_file);
+  if (!in) localizer.fail("config_file", "'" + s.localizer_config_file.string() + "' cannot be read");
+  std::stringstream text;
+  text << in.rdbuf();
+  s.localizer_config_text = text.str();
+
+  const Params evaluation = root.child("evaluation");
+  evaluation.expect_only({"updates", "success_radius_m"});
+  s.updates = static_cast<int>(evaluation.integer("updates", s.updates, 1, 1000));
+  s.success_radius_m = evaluation.number("success_radius_m", s.success_radius_m, Range::positive());
+  return s;
+}
+
+SimulatedRun build_run(const FourPositionsScenario& scenario, uint64_t seed) {
+  std::vector<Eigen::Vector2d> keep_clear;
+  for (size_t i = 0; i + 1 < scenario.path.size(); ++i) {
+    const Eigen::Vector2d a = scenario.path[i], b = scenario.path[i + 1];
+    const int steps = std::max(1, static_cast<int>(std::ceil((b - a).norm())));
+    for (int k = 0; k <= steps; ++k) keep_clear.push_back(a + (b - a) * (static_cast<double>(k) / steps));
+  }
+  SimulatedRun run;
+  run.world = generate_world(scenario.world, seed, keep_clear);
+  run.dsm = noisy_dsm(run.world.surface, scenario.dsm_noise_m, scenario.dsm_nodata_fraction, seed);
+  return run;
+}
+
+void simulate_measurements(const FourPositionsScenario& scenario, const SimulatedRun& run, uint64_t seed,
+                           const std::function<bool(const Measurement&, const Eigen::Isometry3d&)>& sink) {
+  TerrainRobot robot(run.world.terrain, scenario.path, scenario.speed_mps, scenario.base_height_m, scenario.odometry,
+                     scenario.imu, seed * 7919 + 1);
+  std::mt19937_64 laser_rng(seed * 104729 + 3);
+  const double dt = 0.01;
+  double next_odometry = 0.0, next_imu = 0.0, next_scan = 0.0;
+  while (!robot.finished()) {
+    const double t = robot.time_s();
+    const int64_t stamp = static_cast<int64_t>(std::llround(t * 1e9));
+    const Eigen::Isometry3d truth = robot.true_pose();
+    if (t >= next_odometry - 1e-9) {
+      next_odometry += 1.0 / scenario.odometry_rate_hz;
+      if (sink(robot.odometry(stamp), truth)) return;
+    }
+    if (t >= next_imu - 1e-9) {
+      next_imu += 1.0 / scenario.imu_rate_hz;
+      if (sink(robot.imu(stamp), truth)) return;
+    }
+    if (t >= next_scan - 1e-9) {
+      next_scan += 1.0 / scenario.laser.rate_hz;
+      if (sink(simulate_scan(scenario.laser, run.world.surface, truth, t, stamp, laser_rng), truth)) return;
+    }
+    robot.step(dt);
+  }
+}
+
+RunResult run_four_positions(const FourPositionsScenario& scenario, uint64_t seed,
+                             const std::function<void(LogLevel, const std::string&)>& log) {
+  RunResult result;
+  result.seed = seed;
+  const SimulatedRun run = build_run(scenario, seed);
+  const PluginConfig plugin = split_plugin_config(scenario.localizer_config_text, scenario.localizer_config_file.string());
+  if (plugin.plugin != "emoi_markov") {
+    throw ConfigError("scenario localizer runs plugin '" + plugin.plugin + "'; the in-process run needs emoi_markov");
+  }
+  locd::emoi::EmoiMarkovConfig config = locd::emoi::parse_config(plugin.params);
+  config.cache = false;  // every seed is a new world
+  PluginContext context;
+  context.robot_id = scenario.robot_id;
+  if (log) context.log = log;
+  locd::emoi::EmoiMarkovLocalizer localizer;
+  const auto start = std::chrono::steady_clock::now();
+  localizer.configure(context, config, run.dsm);
+  result.layers_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  double update_ms_total = 0.0;
+  simulate_measurements(scenario, run, seed, [&](const Measurement& m, const Eigen::Isometry3d& truth) {
+    const size_t before = localizer.sensor_updates();
+    const auto t0 = std::chrono::steady_clock::now();
+    UpdateResult out;
+    try {
+      out = localizer.update(m);
+    } catch (const InputError&) {
+      return false;
+    }
+    if (localizer.sensor_updates() == before) return false;
+    update_ms_total += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    UpdateRecord record;
+    record.update = static_cast<int>(localizer.sensor_updates());
+    record.time_s = static_cast<double>(header_of(m).stamp_ns) * 1e-9;
+    record.truth = truth.translation().head<2>();
+    record.mode = out.estimate->pose.translation().head<2>();
+    record.error_m = (record.mode - record.truth).norm();
+    for (const auto& [name, value] : out.diagnostics.values) {
+      if (name.rfind("coverage_r", 0) == 0) record.coverage.push_back(value);
+      if (name.rfind("emoi_r", 0) == 0) record.robot_emoi.push_back(value);
+    }
+    int row = 0, col = 0;
+    if (const auto* layers = localizer.full_disk_layers()) {
+      if (localizer.grid().geometry().index_of(record.truth, row, col)) {
+        for (const auto& layer : layers->layers) record.dsm_emoi.push_back(layer(row, col));
+      }
+    } else if (localizer.last_match() && localizer.matcher()->surface().geometry.index_of(record.truth, row, col)) {
+      for (const auto& layer : localizer.last_match()->dsm_emoi) record.dsm_emoi.push_back(layer(row, col));
+    }
+    result.updates.push_back(record);
+    return static_cast<int>(result.updates.size()) >= scenario.updates;
+  });
+  if (!result.updates.empty()) result.mean_update_ms = update_ms_total / static_cast<double>(result.updates.size());
+  result.success = static_cast<int>(result.updates.size()) >= scenario.updates &&
+                   result.updates.back().error_m <= scenario.success_radius_m;
+  return result;
+}
+
+}  // namespace locd::sim::emoi
