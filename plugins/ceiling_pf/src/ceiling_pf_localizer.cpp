@@ -51,7 +51,8 @@ class CeilingPfLocalizer : public Localizer {
 
     const Params det = params.child("detector");
     det.expect_only({"blur_kernel", "blur_sigma", "threshold", "hough_dp", "min_distance_px", "canny_threshold",
-                     "accumulator_threshold", "min_radius_px", "max_radius_px", "max_circles"});
+                     "accumulator_threshold", "min_radius_px", "max_radius_px", "max_circles", "pyramid_levels",
+                     "refine_centroid"});
     DetectorConfig dc;
     dc.blur_kernel = static_cast<int>(det.integer("blur_kernel", dc.blur_kernel, 1, 31));
     if (dc.blur_kernel % 2 == 0) det.fail("blur_kernel", "= " + std::to_string(dc.blur_kernel) + " must be odd");
@@ -64,6 +65,8 @@ class CeilingPfLocalizer : public Localizer {
     dc.min_radius_px = static_cast<int>(det.integer("min_radius_px", dc.min_radius_px, 1, 1000));
     dc.max_radius_px = static_cast<int>(det.integer("max_radius_px", dc.max_radius_px, dc.min_radius_px, 2000));
     dc.max_circles = static_cast<int>(det.integer("max_circles", dc.max_circles, 1, 1024));
+    dc.pyramid_levels = static_cast<int>(det.integer("pyramid_levels", dc.pyramid_levels, 0, 3));
+    dc.refine_centroid = det.flag("refine_centroid", dc.refine_centroid);
     detector_ = std::make_unique<CeilingDetector>(dc);
 
     const Params ext = params.child("detections");
