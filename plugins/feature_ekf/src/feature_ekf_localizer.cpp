@@ -42,12 +42,14 @@ FeatureEkfConfig config_from_params(const Params& params) {
   m.turn_stddev_floor = motion.number("turn_stddev_floor", m.turn_stddev_floor, non_negative);
 
   const Params extraction = params.child("extraction");
-  extraction.expect_only({"range_stddev", "breakpoint_distance", "split_distance", "min_points", "min_length",
+  extraction.expect_only({"range_stddev", "breakpoint_distance", "breakpoint_min_incidence", "split_distance", "min_points", "min_length",
                           "corner_min_angle", "corner_max_gap", "edge_min_depth_jump", "line_rho_stddev",
                           "line_alpha_stddev", "point_range_stddev", "point_bearing_stddev"});
   ExtractorConfig& e = c.extraction;
   e.range_stddev = extraction.number("range_stddev", e.range_stddev, positive);
   e.breakpoint_distance = extraction.number("breakpoint_distance", e.breakpoint_distance, positive);
+  e.breakpoint_min_incidence =
+      extraction.number("breakpoint_min_incidence", e.breakpoint_min_incidence, Range::closed(0.0, M_PI / 2));
   e.split_distance = extraction.number("split_distance", e.split_distance, positive);
   e.min_points = static_cast<int>(extraction.integer("min_points", e.min_points, 3, 100000));
   e.min_length = extraction.number("min_length", e.min_length, non_negative);

@@ -124,10 +124,17 @@ ExtractedFeatures LaserFeatureExtractor::extract(const LaserScan& scan) const {
   // Clusters: runs of adjacent beams without a gap; each split and merged into segments.
   std::vector<bool> cluster_start(points.size(), false), cluster_end(points.size(), false);
   std::vector<Segment> segments;
+  // Adaptive breakpoint (Borges and Aldon): beyond breakpoint_distance, a gap is still one surface
+  // while that surface is seen at an incidence above breakpoint_min_incidence.
+  const double step = std::abs(static_cast<double>(scan.angle_increment));
+  const double adaptive_gain = c.breakpoint_min_incidence > step
+                                   ? std::sin(step) / std::sin(c.breakpoint_min_incidence - step)
+                                   : 0.0;
   size_t begin = 0;
   for (size_t i = 1; i <= points.size(); ++i) {
     const bool cut = i == points.size() || beams[i] != beams[i - 1] + 1 ||
-                     (points[i] - points[i - 1]).norm() > c.breakpoint_distance;
+                     (points[i] - points[i - 1]).norm() >
+                         std::max(c.breakpoint_distance, adaptive_gain * ranges[i - 1] + 3.0 * c.range_stddev);
     if (!cut) continue;
     cluster_start[begin] = true;
     cluster_end[i - 1] = true;

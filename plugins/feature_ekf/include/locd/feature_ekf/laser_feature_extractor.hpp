@@ -17,7 +17,9 @@ namespace locd::feature_ekf {
 
 struct ExtractorConfig {
   double range_stddev = 0.01;           // m, laser range noise: the point noise of the line fit
-  double breakpoint_distance = 0.2;     // m, consecutive points farther apart start a new cluster
+  double breakpoint_distance = 0.2;     // m, consecutive points farther apart start a new cluster...
+  double breakpoint_min_incidence = 0.1745;  // rad (10 deg), ...unless a surface seen at a larger
+                                             // incidence explains the gap (adaptive breakpoint)
   double split_distance = 0.05;         // m, a point farther from its segment's line splits it
   int min_points = 6;                   // points a line needs
   double min_length = 0.3;              // m, length a line needs
