@@ -48,7 +48,7 @@ EmoiMarkovConfig parse_config(const Params& params) {
   params.expect_only({"map", "radii_m", "sigma_m", "min_likelihood", "min_coverage", "full_coverage",
                       "odometry_error", "min_blur_m", "update_distance_m", "heading_source", "use_initial_pose",
                       "base_height_m", "local_map_size_m", "local_map_memory_m", "min_point_range_m", "cache",
-                      "belief_output_max_cells"});
+                      "belief_output_max_cells", "sensor_model", "match_resolution_m"});
   EmoiMarkovConfig config;
   config.map = params.required_text("map");
   config.radii_m = params.numbers("radii_m", config.radii_m, 0, Range::open(0.0, 1000.0));
@@ -63,6 +63,8 @@ EmoiMarkovConfig parse_config(const Params& params) {
     params.fail("full_coverage", "= " + format_number(config.sensor.full_coverage) + " is below min_coverage = " +
                                      format_number(config.sensor.min_coverage) + "; allowed: [min_coverage, 1]");
   }
+  config.sensor_model = params.text("sensor_model", config.sensor_model, {"masked", "full_disk"});
+  config.match_resolution_m = params.number("match_resolution_m", config.match_resolution_m, Range::open(0.0, 100.0));
   config.odometry_error = params.number("odometry_error", config.odometry_error, Range::closed(0.0, 1.0));
   config.min_blur_m = params.number("min_blur_m", config.min_blur_m, Range::closed(0.0, 100.0));
   config.update_distance_m = params.number("update_distance_m", config.update_distance_m, Range::open(0.0, 10000.0));
@@ -103,14 +105,26 @@ void EmoiMarkovLocalizer::configure(const PluginContext& context, const EmoiMark
     last_decile = decile;
     context_.log(LogLevel::kInfo, "emoi_markov: EMOI layers " + std::to_string(decile * 10) + "% (" + stage + ")");
   };
-  const std::optional<std::filesystem::path> cache_directory =
-      config.cache ? std::optional<std::filesystem::path>(default_cache_directory()) : std::nullopt;
-  LayersSource source = load_or_compute_layers(dsm, config.radii_m, cache_directory, progress);
-  layers_from_cache_ = source.from_cache;
-  context_.log(LogLevel::kInfo, std::string("emoi_markov: EMOI layers ") +
-                                    (source.from_cache ? "read from the cache" : "computed") + " (key " +
-                                    source.key.substr(0, 12) + ")");
-  grid_ = std::make_unique<MarkovGrid>(dsm.geometry, std::move(source.layers), config.sensor);
+  layers_.reset();
+  matcher_.reset();
+  if (config.sensor_model == "full_disk") {
+    const std::optional<std::filesystem::path> cache_directory =
+        config.cache ? std::optional<std::filesystem::path>(default_cache_directory()) : std::nullopt;
+    LayersSource source = load_or_compute_layers(dsm, config.radii_m, cache_directory, progress);
+    layers_from_cache_ = source.from_cache;
+    context_.log(LogLevel::kInfo, std::string("emoi_markov: EMOI layers ") +
+                                      (source.from_cache ? "read from the cache" : "computed") + " (key " +
+                                      source.key.substr(0, 12) + ")");
+    layers_ = std::move(source.layers);
+    grid_ = std::make_unique<MarkovGrid>(dsm.geometry, layers_support(*layers_));
+  } else {
+    matcher_ = std::make_unique<MaskedEmoiMatcher>(dsm, config.radii_m, config.match_resolution_m);
+    cv::Mat_<uchar> support(dsm.elevation.size(), uchar(0));
+    for (int r = 0; r < support.rows; ++r) {
+      for (int c = 0; c < support.cols; ++c) support(r, c) = std::isfinite(dsm.elevation(r, c)) ? 1 : 0;
+    }
+    grid_ = std::make_unique<MarkovGrid>(dsm.geometry, support);
+  }
   dsm_elevation_ = dsm.elevation;
   config_.local_map.resolution = dsm.geometry.resolution;
   local_map_ = std::make_unique<LocalElevationMap>(config_.local_map);
@@ -264,14 +278,35 @@ UpdateResult EmoiMarkovLocalizer::after_insert(int64_t stamp_ns) {
   pending_travel_m_ = 0.0;
   // Table 1, perception: the robot's EMOI over its observed cells, eq. 8, normalise.
   const Eigen::Vector3d position = last_odometry_->pose.translation();
-  last_robot_emoi_ = local_map_->emoi(position.head<2>(), position.z() - config_.base_height_m, config_.radii_m,
-                                      travelled_m_);
-  EmoiObservation z;
-  for (const auto& e : last_robot_emoi_) {
-    z.emoi.push_back(e.emoi);
-    z.coverage.push_back(e.coverage);
+  const double ground = position.z() - config_.base_height_m;
+  std::vector<double> weights;
+  last_robot_emoi_.clear();
+  cv::Mat_<float> log_likelihood;
+  if (matcher_) {
+    const double heading_offset = normalize_angle(map_heading() - yaw_of(last_odometry_->pose.linear()));
+    const cv::Mat_<float> patch = local_map_->robot_patch(position.head<2>(), heading_offset, matcher_->cell_m(),
+                                                          matcher_->patch_radius(), ground, travelled_m_);
+    last_match_ = matcher_->match(patch);
+    const MaskedEmoiMatcher::Match& match = *last_match_;
+    for (size_t i = 0; i < match.robot_emoi.size(); ++i) {
+      last_robot_emoi_.push_back({match.robot_emoi[i], match.coverage[i], match.observed[i]});
+    }
+    log_likelihood = matcher_->log_likelihood(match, config_.sensor, grid_->geometry().height,
+                                              grid_->geometry().width, &weights);
+  } else {
+    last_robot_emoi_ = local_map_->emoi(position.head<2>(), ground, config_.radii_m, travelled_m_);
+    EmoiObservation z;
+    for (const auto& e : last_robot_emoi_) {
+      z.emoi.push_back(e.emoi);
+      z.coverage.push_back(e.coverage);
+    }
+    log_likelihood = full_disk_log_likelihood(*layers_, z, config_.sensor, &weights);
   }
-  const SensorUpdateReport sensor = grid_->sensor_update(z);
+  SensorUpdateReport sensor;
+  sensor.evidence = 1.0;
+  if (std::any_of(weights.begin(), weights.end(), [](double w) { return w > 0.0; })) {
+    sensor = grid_->sensor_update(log_likelihood, config_.sensor.min_likelihood);
+  }
   summary_ = grid_->summary();
   ++sensor_updates_;
 
@@ -282,7 +317,7 @@ UpdateResult EmoiMarkovLocalizer::after_insert(int64_t stamp_ns) {
     const std::string r = std::to_string(static_cast<int>(std::lround(config_.radii_m[i])));
     values.emplace_back("emoi_r" + r, last_robot_emoi_[i].emoi);
     values.emplace_back("coverage_r" + r, last_robot_emoi_[i].coverage);
-    values.emplace_back("weight_r" + r, sensor.weights[i]);
+    values.emplace_back("weight_r" + r, weights[i]);
   }
   values.emplace_back("sensor_update_applied", sensor.applied ? 1.0 : 0.0);
   values.emplace_back("evidence", sensor.evidence);

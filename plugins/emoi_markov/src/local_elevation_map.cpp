@@ -151,6 +151,35 @@ size_t LocalElevationMap::observed_cells(double travelled_m) const {
   return n;
 }
 
+cv::Mat_<float> LocalElevationMap::robot_patch(const Eigen::Vector2d& position, double heading_offset, double cell_m,
+                                               int radius_cells, double centre_elevation, double travelled_m) const {
+  const int side = 2 * radius_cells + 1;
+  cv::Mat_<float> patch(side, side, kUnknown);
+  const double res = config_.resolution;
+  const int span = std::max(1, static_cast<int>(std::lround(cell_m / res)));
+  const Eigen::Rotation2Dd map_to_odom(-heading_offset);
+  for (int i = 0; i < side; ++i) {
+    for (int j = 0; j < side; ++j) {
+      const Eigen::Vector2d offset((j - radius_cells) * cell_m, (i - radius_cells) * cell_m);
+      const Eigen::Vector2d corner = position + map_to_odom * offset - Eigen::Vector2d::Constant(cell_m / 2);
+      const Eigen::Vector2i first = cell_of(corner + Eigen::Vector2d::Constant(res / 2), res) - origin_cell_;
+      double sum = 0.0;
+      int observed = 0;
+      for (int r = std::max(0, first.y()); r < std::min(cells_, first.y() + span); ++r) {
+        const float* e = elevation_.ptr<float>(r);
+        const float* s = seen_at_.ptr<float>(r);
+        for (int c = std::max(0, first.x()); c < std::min(cells_, first.x() + span); ++c) {
+          if (!std::isfinite(e[c]) || travelled_m - s[c] > config_.memory_distance_m) continue;
+          sum += e[c];
+          ++observed;
+        }
+      }
+      if (observed > 0) patch(i, j) = static_cast<float>(sum / observed - centre_elevation);
+    }
+  }
+  return patch;
+}
+
 GridGeometry LocalElevationMap::geometry() const {
   GridGeometry g;
   g.resolution = config_.resolution;

@@ -26,24 +26,59 @@ std::vector<int> box_widths_for_gaussian(double sigma_cells, int passes) {
   return widths;
 }
 
-MarkovGrid::MarkovGrid(GridGeometry geometry, EmoiLayers layers, SensorModelConfig sensor)
-    : geometry_(geometry), layers_(std::move(layers)), sensor_(sensor) {
-  if (layers_.layers.empty() || layers_.layers.size() != layers_.radii_m.size()) {
-    throw ConfigError("Markov grid needs one EMOI layer per radius");
-  }
-  support_ = cv::Mat_<uchar>(geometry_.height, geometry_.width, uchar(1));
-  for (const auto& layer : layers_.layers) {
-    if (layer.rows != geometry_.height || layer.cols != geometry_.width) {
-      throw ConfigError("EMOI layer size does not match the DSM");
-    }
+double coverage_weight(double coverage, const SensorModelConfig& sensor) {
+  if (!(coverage >= sensor.min_coverage) || coverage <= 0.0) return 0.0;
+  if (sensor.full_coverage <= sensor.min_coverage) return 1.0;
+  return std::clamp((coverage - sensor.min_coverage) / (sensor.full_coverage - sensor.min_coverage), 0.0, 1.0);
+}
+
+cv::Mat_<uchar> layers_support(const EmoiLayers& layers) {
+  cv::Mat_<uchar> support(layers.layers.at(0).size(), uchar(1));
+  for (const auto& layer : layers.layers) {
     for (int r = 0; r < layer.rows; ++r) {
       const float* v = layer.ptr<float>(r);
-      uchar* s = support_.ptr<uchar>(r);
+      uchar* s = support.ptr<uchar>(r);
       for (int c = 0; c < layer.cols; ++c) s[c] = s[c] && std::isfinite(v[c]);
     }
   }
+  return support;
+}
+
+cv::Mat_<float> full_disk_log_likelihood(const EmoiLayers& layers, const EmoiObservation& z,
+                                         const SensorModelConfig& sensor, std::vector<double>* weights_out) {
+  const size_t radii = layers.layers.size();
+  if (radii == 0 || z.emoi.size() != radii || z.coverage.size() != radii) {
+    throw InputError("EMOI observation has " + std::to_string(z.emoi.size()) + " values; the map has " +
+                     std::to_string(radii) + " radii");
+  }
+  std::vector<double> weights(radii, 0.0);
+  for (size_t i = 0; i < radii; ++i) weights[i] = std::isfinite(z.emoi[i]) ? coverage_weight(z.coverage[i], sensor) : 0.0;
+  if (weights_out) *weights_out = weights;
+  const float inverse_variance = static_cast<float>(1.0 / (sensor.sigma_m * sensor.sigma_m));
+  cv::Mat_<float> exponent(layers.layers[0].size(), 0.0f);
+  for (size_t i = 0; i < radii; ++i) {
+    if (weights[i] <= 0.0) continue;
+    const float robot = static_cast<float>(z.emoi[i]);
+    const float scale = static_cast<float>(weights[i]) * inverse_variance;
+    for (int r = 0; r < exponent.rows; ++r) {
+      const float* layer = layers.layers[i].ptr<float>(r);
+      float* e = exponent.ptr<float>(r);
+      for (int c = 0; c < exponent.cols; ++c) {
+        const float d = layer[c] - robot;
+        e[c] -= scale * d * d;  // eq. 8, multiplied over radii
+      }
+    }
+  }
+  return exponent;
+}
+
+MarkovGrid::MarkovGrid(GridGeometry geometry, cv::Mat_<uchar> support)
+    : geometry_(geometry), support_(std::move(support)) {
+  if (support_.rows != geometry_.height || support_.cols != geometry_.width) {
+    throw ConfigError("Markov grid support does not match the DSM size");
+  }
   support_cells_ = static_cast<size_t>(cv::countNonZero(support_));
-  if (support_cells_ == 0) throw ConfigError("the DSM has no cell with an EMOI at every radius");
+  if (support_cells_ == 0) throw ConfigError("the DSM has no cell the robot could occupy (no data)");
   set_uniform();
 }
 
@@ -108,55 +143,17 @@ MotionUpdateReport MarkovGrid::motion_update(const Eigen::Vector2d& displacement
   return report;
 }
 
-cv::Mat_<float> MarkovGrid::likelihood(const EmoiObservation& z, std::vector<double>* weights_out) const {
-  const size_t radii = layers_.layers.size();
-  if (z.emoi.size() != radii || z.coverage.size() != radii) {
-    throw InputError("EMOI observation has " + std::to_string(z.emoi.size()) + " values; the map has " +
-                     std::to_string(radii) + " radii");
-  }
-  std::vector<float> weights(radii, 0.0f);
-  for (size_t i = 0; i < radii; ++i) {
-    const double c = z.coverage[i];
-    if (!std::isfinite(z.emoi[i]) || c < sensor_.min_coverage) continue;
-    const double span = std::max(1e-9, sensor_.full_coverage - sensor_.min_coverage);
-    weights[i] = static_cast<float>(std::clamp((c - sensor_.min_coverage) / span, 0.0, 1.0));
-    if (sensor_.full_coverage <= sensor_.min_coverage) weights[i] = 1.0f;
-  }
-  if (weights_out) weights_out->assign(weights.begin(), weights.end());
-  const float inverse_variance = static_cast<float>(1.0 / (sensor_.sigma_m * sensor_.sigma_m));
-  // Exponent of eq. 8, multiplied over radii: -sum_R w_R (EMOI_robot - EMOI_DSM)^2 / sigma^2.
-  cv::Mat_<float> exponent(geometry_.height, geometry_.width, 0.0f);
-  for (size_t i = 0; i < radii; ++i) {
-    if (weights[i] <= 0.0f) continue;
-    const float robot = static_cast<float>(z.emoi[i]);
-    const float scale = weights[i] * inverse_variance;
-    for (int r = 0; r < geometry_.height; ++r) {
-      const float* layer = layers_.layers[i].ptr<float>(r);
-      float* e = exponent.ptr<float>(r);
-      for (int c = 0; c < geometry_.width; ++c) {
-        const float d = layer[c] - robot;
-        e[c] -= scale * d * d;
-      }
-    }
-  }
-  const float floor_exponent = static_cast<float>(std::log(sensor_.min_likelihood));
-  cv::patchNaNs(exponent, floor_exponent);  // cells without data (off-support, belief 0)
-  cv::max(exponent, floor_exponent, exponent);
-  cv::Mat_<float> result;
-  cv::exp(exponent, result);
-  return result;
-}
-
-SensorUpdateReport MarkovGrid::sensor_update(const EmoiObservation& z) {
+SensorUpdateReport MarkovGrid::sensor_update(const cv::Mat_<float>& log_likelihood, double min_likelihood) {
   SensorUpdateReport report;
-  const cv::Mat_<float> p = likelihood(z, &report.weights);
-  report.applied = std::any_of(report.weights.begin(), report.weights.end(), [](double w) { return w > 0; });
-  if (!report.applied) {
-    report.evidence = 1.0;
-    return report;
-  }
+  if (log_likelihood.size() != belief_.size()) throw InputError("likelihood grid does not match the belief grid");
+  const float floor_exponent = static_cast<float>(std::log(min_likelihood));
+  cv::Mat_<float> p = log_likelihood.clone();
+  cv::patchNaNs(p, floor_exponent);  // no data there: the floor
+  cv::max(p, floor_exponent, p);
+  cv::exp(p, p);
   cv::multiply(belief_, p, belief_);
   report.evidence = normalise();
+  report.applied = true;
   if (!(report.evidence > 0.0)) {
     set_uniform();
     return report;

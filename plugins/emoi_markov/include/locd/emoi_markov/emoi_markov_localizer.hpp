@@ -12,6 +12,7 @@
 #include "locd/emoi_markov/dsm_io.hpp"
 #include "locd/emoi_markov/local_elevation_map.hpp"
 #include "locd/emoi_markov/markov_grid.hpp"
+#include "locd/emoi_markov/masked_emoi.hpp"
 #include "locd/sdk/plugin.hpp"
 
 namespace locd::emoi {
@@ -20,6 +21,8 @@ struct EmoiMarkovConfig {
   std::string map;                                 // DSM name, resolved by PluginContext::maps
   std::vector<double> radii_m{5.0, 10.0, 15.0};
   SensorModelConfig sensor;
+  std::string sensor_model = "masked";             // "masked" (observed cells only) or "full_disk" (paper)
+  double match_resolution_m = 0.5;                 // matching grid of the masked model
   double odometry_error = 0.1;                     // blur stddev per metre travelled
   double min_blur_m = 0.0;                         // added (in quadrature) to every motion blur
   double update_distance_m = 10.0;                 // travel between sensor updates
@@ -49,6 +52,10 @@ class EmoiMarkovLocalizer : public Localizer {
   const EmoiMarkovConfig& config() const { return config_; }
   size_t sensor_updates() const { return sensor_updates_; }
   bool layers_from_cache() const { return layers_from_cache_; }
+  const EmoiLayers* full_disk_layers() const { return layers_ ? &*layers_ : nullptr; }
+  const MaskedEmoiMatcher* matcher() const { return matcher_.get(); }
+  // The masked model's last match (DSM EMOI_M on the matching grid), for diagnostics.
+  const std::optional<MaskedEmoiMatcher::Match>& last_match() const { return last_match_; }
 
  private:
   UpdateResult on_odometry(const Odometry& odometry);
@@ -65,6 +72,9 @@ class EmoiMarkovLocalizer : public Localizer {
   EmoiMarkovConfig config_;
   std::unique_ptr<MarkovGrid> grid_;
   std::unique_ptr<LocalElevationMap> local_map_;
+  std::optional<EmoiLayers> layers_;               // full_disk model
+  std::unique_ptr<MaskedEmoiMatcher> matcher_;     // masked model
+  std::optional<MaskedEmoiMatcher::Match> last_match_;
   cv::Mat_<float> dsm_elevation_;
   bool layers_from_cache_ = false;
 

@@ -60,6 +60,12 @@ class LocalElevationMap {
   std::vector<PointEmoi> emoi(const Eigen::Vector2d& position, double centre_elevation,
                               const std::vector<double>& radii_m, double travelled_m) const;
 
+  // The robot-centred patch the masked match reads: (2 radius_cells + 1)^2 cells of cell_m,
+  // aligned with the map frame (odom rotated by heading_offset = map yaw - odom yaw), each the
+  // highest observed elevation in its square (eq. 5 again) minus centre_elevation; NaN unobserved.
+  cv::Mat_<float> robot_patch(const Eigen::Vector2d& position, double heading_offset, double cell_m,
+                              int radius_cells, double centre_elevation, double travelled_m) const;
+
   // Observed elevations (NaN where unknown or forgotten) and the grid geometry (odom frame).
   cv::Mat_<float> observed(double travelled_m) const;
   GridGeometry geometry() const;

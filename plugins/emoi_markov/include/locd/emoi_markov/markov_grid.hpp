@@ -35,14 +35,13 @@ struct EmoiObservation {
 
 struct MotionUpdateReport {
   double mass_before = 0.0;
-  double mass_lost = 0.0;   // pushed off the map (or onto nodata cells)
+  double mass_lost = 0.0;   // pushed off the map (or onto cells without data)
   bool reset = false;       // nothing left: belief reset to uniform
 };
 
 struct SensorUpdateReport {
-  double evidence = 0.0;           // sum of p(z|x) bel-(x) before normalisation
-  std::vector<double> weights;     // w_R used (0 = radius left out)
-  bool applied = false;            // false when every radius was left out
+  double evidence = 0.0;    // sum of p(z|x) bel-(x) before normalisation
+  bool applied = false;
 };
 
 struct BeliefSummary {
@@ -57,30 +56,40 @@ struct BeliefSummary {
 // (W. Wells 1986; P. Kovesi 2010). Odd widths, so every pass is centred.
 std::vector<int> box_widths_for_gaussian(double sigma_cells, int passes);
 
+// Weight of one radius from the observed fraction of its disk: 0 below min_coverage, rising
+// linearly to 1 at full_coverage (tempers the likelihood when the local map is thin).
+double coverage_weight(double coverage, const SensorModelConfig& sensor);
+
+// The paper's sensor model on the precomputed full-disk layers: log p(z|x) =
+// -sum_R w_R (EMOI_robot - EMOI_DSM(x))^2 / sigma^2 (eq. 8 multiplied over radii). NaN where a
+// layer has no data. weights (out) gets w_R.
+cv::Mat_<float> full_disk_log_likelihood(const EmoiLayers& layers, const EmoiObservation& z,
+                                         const SensorModelConfig& sensor, std::vector<double>* weights = nullptr);
+
+// Cells where every layer holds a value.
+cv::Mat_<uchar> layers_support(const EmoiLayers& layers);
+
 class MarkovGrid {
  public:
-  MarkovGrid(GridGeometry geometry, EmoiLayers layers, SensorModelConfig sensor);
+  // support: cells the robot may occupy (DSM data there); belief is zero elsewhere.
+  MarkovGrid(GridGeometry geometry, cv::Mat_<uchar> support);
 
   void set_uniform();
   void set_gaussian(const Eigen::Vector2d& mean, double stddev_m);
 
   MotionUpdateReport motion_update(const Eigen::Vector2d& displacement_m, double blur_stddev_m);
-  // The likelihood of eq. 8 for every cell (exposed for tests and diagnostics).
-  cv::Mat_<float> likelihood(const EmoiObservation& z, std::vector<double>* weights = nullptr) const;
-  SensorUpdateReport sensor_update(const EmoiObservation& z);
+  // bel(x) = p(z|x) bel-(x) with p = exp(max(log_likelihood, log(min_likelihood))); normalised.
+  SensorUpdateReport sensor_update(const cv::Mat_<float>& log_likelihood, double min_likelihood);
 
   BeliefSummary summary() const;
   const cv::Mat_<float>& belief() const { return belief_; }
   cv::Mat_<float>& belief() { return belief_; }
   const GridGeometry& geometry() const { return geometry_; }
-  const EmoiLayers& layers() const { return layers_; }
-  const cv::Mat_<uchar>& support() const { return support_; }  // cells with every layer
+  const cv::Mat_<uchar>& support() const { return support_; }
 
  private:
   double normalise();
   GridGeometry geometry_;
-  EmoiLayers layers_;
-  SensorModelConfig sensor_;
   cv::Mat_<float> belief_;
   cv::Mat_<uchar> support_;
   size_t support_cells_ = 0;

@@ -1,0 +1,58 @@
+// Beyond the paper: EMOI over exactly the cells the robot has observed ("masked EMOI").
+//
+// A robot that has seen only part of a disk cannot reproduce the DSM's full-disk EMOI (the
+// paper's failure at location A). Here the DSM side uses the same relative cells M the robot
+// observed (rotated into the map frame by the heading), for every candidate cell x at once:
+//
+//   EMOI_M(x) = 1/n_M(x) * sum_{k in M} r_k^2 (e(x + k) - e(x)) / R^2        (eq. 7 on M)
+//
+// which is three DFT correlations per radius on a coarser matching grid (DSM max-pooled, like
+// the max-height local map of eq. 5; the centre e(x) min-pooled, the ground the robot stands on).
+// The resulting log-likelihood (eq. 8 multiplied over radii) is interpolated to the belief grid.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "locd/emoi_markov/dsm_io.hpp"
+#include "locd/emoi_markov/markov_grid.hpp"
+
+namespace locd::emoi {
+
+class MaskedEmoiMatcher {
+ public:
+  // match_resolution_m is rounded to a whole number of DSM cells (at least one).
+  MaskedEmoiMatcher(const ElevationMap& dsm, std::vector<double> radii_m, double match_resolution_m);
+
+  int factor() const { return factor_; }                        // DSM cells per matching cell
+  double cell_m() const { return coarse_.geometry.resolution; }
+  int patch_radius() const { return patch_radius_; }          // patch side = 2 * patch_radius + 1
+  const ElevationMap& surface() const { return coarse_; }     // max-pooled DSM
+
+  struct Match {
+    std::vector<double> robot_emoi;           // per radius, over the observed cells
+    std::vector<double> coverage;             // per radius, observed fraction of the disk
+    std::vector<size_t> observed;             // per radius, |M|
+    std::vector<cv::Mat_<float>> dsm_emoi;    // per radius, EMOI_M(x) on the matching grid
+  };
+  // patch: map-aligned, centred on the robot, matching-grid cells, value = elevation minus the
+  // robot's ground elevation, NaN = not observed. Size (2 patch_radius + 1)^2.
+  Match match(const cv::Mat_<float>& patch) const;
+
+  // log p(z|x) on the DSM (belief) grid; NaN-free (cells without data get the floor).
+  cv::Mat_<float> log_likelihood(const Match& match, const SensorModelConfig& sensor, int fine_rows, int fine_cols,
+                                 std::vector<double>* weights = nullptr) const;
+
+ private:
+  std::vector<double> radii_m_;
+  int factor_ = 1;
+  int patch_radius_ = 1;
+  ElevationMap coarse_;            // max-pooled
+  cv::Mat_<float> ground_;         // min-pooled centre elevations
+  double reference_ = 0.0;
+  int padded_rows_ = 0, padded_cols_ = 0;
+  cv::Mat elevation_spectrum_, valid_spectrum_;
+};
+
+}  // namespace locd::emoi
