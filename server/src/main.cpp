@@ -183,6 +183,11 @@ int run(const Options& o) {
   try {
     DdsBridge bridge(config.domain_id, config.server_id, config.limits, logger);
     Server server(config, catalog, bridge, logger);
+    // Whatever way this scope ends, the listeners stop before the server they call goes away.
+    struct ReadersFirst {
+      DdsBridge& bridge;
+      ~ReadersFirst() { bridge.disconnect(); }
+    } readers_first{bridge};
     server.boot();
     bridge.connect(server);
     logger.log(LogLevel::kInfo, "server",

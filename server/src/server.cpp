@@ -131,7 +131,7 @@ void Server::on_session_request(SessionRequestMessage request) {
       status.request_id = request.request_id;
       status.request_ok = false;
       status.message = "no session to stop for robot '" + request.robot_id + "'";
-      sink_.publish_status(status);
+      pool_.post([this, status] { sink_.publish_status(status); });
     }
     return;
   }
@@ -230,11 +230,8 @@ void Server::report_no_session(const std::string& robot_id, const std::string& t
   status.last_error = "no session for robot '" + robot_id + "': message on " + topic + " ignored" + detail +
                       "; send a session request on " + topics::kSessionRequest + " first";
   logger_.log(LogLevel::kWarning, robot_id.empty() ? "server" : robot_id, status.last_error);
-  try {
-    sink_.publish_status(status);
-  } catch (const std::exception& e) {
-    logger_.log(LogLevel::kError, "server", std::string("status not published: ") + e.what());
-  }
+  // Written on the pool: this runs on a listener thread, which must never block.
+  pool_.post([this, status] { sink_.publish_status(status); });
 }
 
 void Server::publish_all_status() {

@@ -83,7 +83,7 @@ bool Session::push(Measurement measurement) {
   }
   if (!error.empty()) {
     log(LogLevel::kWarning, "rejected: " + error);
-    publish_status();
+    publish_status_later();
   } else if (dropped) {
     log(LogLevel::kDebug, "queue full (" + std::to_string(queue_depth_) + "): dropped the oldest message");
   }
@@ -98,7 +98,12 @@ void Session::reject_input(const std::string& error) {
     last_error_ = error;
   }
   log(LogLevel::kWarning, "rejected: " + error);
-  publish_status();
+  publish_status_later();
+}
+
+void Session::publish_status_later() {
+  auto self = shared_from_this();
+  pool_.post([self] { self->publish_status(); });
 }
 
 void Session::set_pose(const PoseEstimate& pose) {

@@ -225,7 +225,9 @@ TEST(ServerBadInput, UnknownPluginListsTheKnownOnes) {
   EXPECT_FALSE(s.request_ok);
   EXPECT_CONTAINS(s.message, "unknown plugin 'particle_magic'; known plugins: ");
   EXPECT_CONTAINS(s.message, "fixture_odometry");
-  if (feature_ekf_built()) EXPECT_CONTAINS(s.message, "feature_ekf");
+  if (feature_ekf_built()) {
+    EXPECT_CONTAINS(s.message, "feature_ekf");
+  }
 }
 
 TEST(ServerBadInput, PathAsPluginNameIsRefused) {

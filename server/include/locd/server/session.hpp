@@ -60,6 +60,8 @@ class Session : public std::enable_shared_from_this<Session> {
 
   SessionStatusReport status() const;
   void publish_status() const;
+  // From a listener thread: the status is written on the pool, never blocking the listener.
+  void publish_status_later();
 
  private:
   void post_control(std::function<void()> work);
