@@ -222,3 +222,68 @@ TEST(ExtendedKalmanFilter, RejectsAnUpdateWhoseInnovationCovarianceIsNotPositive
   EXPECT_FALSE(filter.update<2>(Eigen::Vector2d(1, 1), H, Eigen::Matrix2d::Zero()));
   EXPECT_EQ(filter.state(), Eigen::Vector3d::Zero());
 }
+
+namespace {
+
+// A corridor: two long parallel walls 2 m apart and two collinear pieces of the south wall.
+FeatureMap2D association_map() {
+  FeatureMap2D map;
+  map.lines.push_back({"south_a", {0, 0}, {10, 0}});
+  map.lines.push_back({"south_b", {12, 0}, {20, 0}});
+  map.lines.push_back({"north", {0, 2}, {20, 2}});
+  map.corners.push_back({"c", {10, 2}});
+  map.edges.push_back({"e", {10, 0}});
+  return map;
+}
+
+ExtractedLine measured_line(const Pose2& robot, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  const Pose2 inverse = robot.inverse();
+  const LineFeature in_robot{"", inverse.transform(a), inverse.transform(b)};
+  ExtractedLine line;
+  line.z = {in_robot.rho(), in_robot.alpha()};
+  line.covariance = Eigen::Vector2d(0.02 * 0.02, 0.01 * 0.01).asDiagonal();
+  line.start = in_robot.a;
+  line.end = in_robot.b;
+  return line;
+}
+
+}  // namespace
+
+TEST(NearestNeighborAssociation, MatchesEachLineToTheWallItOverlaps) {
+  const FeatureMap2D map = association_map();
+  const Pose2 robot(13.0, 1.0, 0.1);
+  ExtractedFeatures features;
+  features.lines.push_back(measured_line(robot, {12.5, 0}, {16, 0}));   // on south_b only
+  features.lines.push_back(measured_line(robot, {11, 2}, {16, 2}));     // north
+  const NearestNeighborAssociation association;
+  const Eigen::Matrix3d P = Eigen::Vector3d(0.01, 0.01, 0.001).asDiagonal();
+  const std::vector<Association> result = association.associate(features, map, robot.vector(), P);
+  ASSERT_EQ(result.size(), 2u);
+  EXPECT_EQ(result[0].map_index, 1);  // south_b, not the collinear south_a it does not overlap
+  EXPECT_EQ(result[0].candidates_in_gate, 1u);
+  EXPECT_EQ(result[1].map_index, 2);
+  EXPECT_LT(result[0].mahalanobis2, 1e-9);
+  EXPECT_FALSE(association.line_visible(features.lines[0], map.lines[0], robot.vector()));
+  EXPECT_TRUE(association.line_visible(features.lines[0], map.lines[1], robot.vector()));
+}
+
+TEST(NearestNeighborAssociation, LeavesAFeatureOutsideTheGateUnmatched) {
+  const FeatureMap2D map = association_map();
+  const Pose2 robot(5.0, 1.0, 0.0);
+  ExtractedFeatures features;
+  features.lines.push_back(measured_line(robot, {2, 1.5}, {8, 1.5}));  // a wall 0.5 m off any mapped one
+  ExtractedPoint edge;                                                  // the mapped edge, seen where it is
+  const Eigen::Vector2d edge_in_robot = robot.inverse().transform(map.edges[0].position);
+  edge.z = {edge_in_robot.norm(), std::atan2(edge_in_robot.y(), edge_in_robot.x())};
+  edge.covariance = Eigen::Vector2d(0.02 * 0.02, 0.01 * 0.01).asDiagonal();
+  features.edges.push_back(edge);
+  const NearestNeighborAssociation association;
+  const Eigen::Matrix3d P = Eigen::Vector3d(0.001, 0.001, 0.0001).asDiagonal();
+  const std::vector<Association> result = association.associate(features, map, robot.vector(), P);
+  ASSERT_EQ(result.size(), 2u);
+  EXPECT_FALSE(result[0].associated());
+  EXPECT_GT(result[0].mahalanobis2, association.gate().threshold(2));
+  EXPECT_TRUE(result[1].associated());
+  EXPECT_EQ(result[1].map_kind, FeatureKind::kEdge);
+  EXPECT_EQ(result[1].map_index, 0);
+}
