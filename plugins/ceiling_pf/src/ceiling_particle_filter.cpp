@@ -117,7 +117,8 @@ double CeilingParticleFilter::log_likelihood(const Pose2& pose, const std::vecto
                                 (sr * sr) / std::max(d.range * d.range, 1e-4));
     const Eigen::Vector2d in_map(pose.x + c * d.point.x() - s * d.point.y(),
                                  pose.y + s * d.point.x() + c * d.point.y());
-    const int n = index_->nearest(in_map, candidates);
+    const int n = config_.scan_all_landmarks ? index_->nearest_brute_force(in_map, candidates)
+                                              : index_->nearest(in_map, candidates);
     double best = std::numeric_limits<double>::infinity();
     int best_id = -1;
     for (int i = 0; i < n && i < config_.candidates; ++i) {

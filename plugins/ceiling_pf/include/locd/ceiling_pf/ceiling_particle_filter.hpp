@@ -28,6 +28,8 @@ struct ParticleFilterConfig {
   double hit_fraction = 0.95;     // weight of the Gaussian part; the rest is a uniform outlier term
   double max_range = 3.5;         // m, support of the uniform term (camera's view)
   int candidates = 3;             // N of Table 1
+  bool scan_all_landmarks = false;  // find the N nearest by scanning the whole map (the direct
+                                    // form of Table 1, line 2: the baseline for the grid index)
 
   // Particle count. Without KLD the count stays at `particles`.
   size_t particles = 500;
