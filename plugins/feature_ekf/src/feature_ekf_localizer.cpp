@@ -83,7 +83,7 @@ class FeatureEkfLocalizer : public Localizer {
     FeatureMap2D map = load_feature_map(context.maps.resolve(map_name).string(), context.limits.max_map_cells);
     limits_ = context.limits;
     filter_ = std::make_unique<FeatureEkfFilter>(std::move(config), std::move(map));
-    last_stamp_ns_.reset();
+    last_scan_stamp_ns_.reset();
     last_odometry_stamp_ns_.reset();
   }
 
@@ -131,7 +131,7 @@ class FeatureEkfLocalizer : public Localizer {
     if (!filter_) throw InputError("feature_ekf: not configured");
   }
 
-  void check_stamp(int64_t stamp_ns, std::optional<int64_t>& last, const char* what) {
+  static void check_stamp(int64_t stamp_ns, const std::optional<int64_t>& last, const char* what) {
     if (last && stamp_ns < *last) {
       throw InputError(std::string("feature_ekf: ") + what + " stamp " + std::to_string(stamp_ns) +
                        " ns goes backwards (previous " + std::to_string(*last) + " ns)");
@@ -142,13 +142,11 @@ class FeatureEkfLocalizer : public Localizer {
   UpdateResult update_odometry(const Odometry& odometry) {
     if (!finite(odometry.pose)) throw InputError("feature_ekf: odometry pose has NaN or Inf");
     check_stamp(odometry.header.stamp_ns, last_odometry_stamp_ns_, "odometry");
-    check_stamp(odometry.header.stamp_ns, last_stamp_ns_, "odometry");
     if (last_odometry_stamp_ns_ && odometry.header.stamp_ns == *last_odometry_stamp_ns_) {
       throw InputError("feature_ekf: odometry stamp " + std::to_string(odometry.header.stamp_ns) +
                        " ns repeats the previous one");
     }
     last_odometry_stamp_ns_ = odometry.header.stamp_ns;
-    last_stamp_ns_ = odometry.header.stamp_ns;
     filter_->apply_odometry(Pose2::from_isometry(odometry.pose), odometry.header.stamp_ns);
     return {};
   }
@@ -164,7 +162,7 @@ class FeatureEkfLocalizer : public Localizer {
       throw InputError("feature_ekf: scan geometry is invalid (angle_min, angle_increment != 0, range_min < range_max, "
                        "sensor_pose must be finite)");
     }
-    check_stamp(scan.header.stamp_ns, last_stamp_ns_, "scan");
+    check_stamp(scan.header.stamp_ns, last_scan_stamp_ns_, "scan");
     bool usable = false;
     for (size_t i = 0; i < scan.ranges.size() && !usable; ++i) usable = scan.valid_return(i);
     if (!usable) {
@@ -172,7 +170,7 @@ class FeatureEkfLocalizer : public Localizer {
                        " beams, none finite within [range_min, range_max])");
     }
     const ScanUpdateReport report = filter_->update(scan);
-    last_stamp_ns_ = scan.header.stamp_ns;
+    last_scan_stamp_ns_ = scan.header.stamp_ns;
 
     UpdateResult result;
     PoseEstimate estimate;
@@ -210,7 +208,9 @@ class FeatureEkfLocalizer : public Localizer {
 
   Limits limits_;
   std::unique_ptr<FeatureEkfFilter> filter_;
-  std::optional<int64_t> last_stamp_ns_;
+  // Stamps must not go backwards within a stream. Across streams they may interleave: a scan
+  // stamped before the latest odometry is fused at the current pose.
+  std::optional<int64_t> last_scan_stamp_ns_;
   std::optional<int64_t> last_odometry_stamp_ns_;
 };
 

@@ -177,6 +177,13 @@ TEST_F(FeatureEkfPlugin, BadMeasurementsAreRejectedAndTheSessionGoesOn) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("backwards"), std::string::npos) << e.what();
   }
+  EXPECT_FALSE(localizer->update(odometry_at(Pose2(0, 0, 0), 2'000'000'000)).estimate.has_value());
+  EXPECT_THROW(localizer->update(odometry_at(Pose2(0, 0, 0), 1'999'999'999)), InputError);
+  EXPECT_THROW(localizer->update(odometry_at(Pose2(0, 0, 0), 2'000'000'000)), InputError);
+  // A scan stamped before the latest odometry (but after the previous scan) is still fused.
+  LaserScan late = scan;
+  late.header.stamp_ns += 1;
+  EXPECT_TRUE(localizer->update(late).estimate.has_value());
   PoseEstimate bad_pose;
   bad_pose.covariance(0, 0) = -1.0;
   EXPECT_THROW(localizer->set_pose(bad_pose), InputError);
