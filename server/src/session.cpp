@@ -137,6 +137,8 @@ void Session::set_pose(const PoseEstimate& pose) {
 
 uint64_t Session::begin_request(uint64_t request_id) {
   std::lock_guard<std::mutex> lock(mutex_);
+  // A request (re)starts the stream: a robot that restarted with its clock from zero is served.
+  last_stamp_.fill(std::nullopt);
   return ++latest_generation_;
 }
 

@@ -270,3 +270,20 @@ TEST_F(SessionTest, InitialPoseReachesThePluginOnItsStrand) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST_F(SessionTest, ANewRequestAcceptsARestartedRobotsClock) {
+  auto session = make(16);
+  auto record = std::make_shared<Record>();
+  install(*session, recording(record), "recording", 1);
+  session->push(odometry(5000));
+  ASSERT_TRUE(wait_used(*session, 1));
+  install(*session, recording(std::make_shared<Record>()), "recording", 2);
+  session->push(odometry(10));  // the robot restarted: its clock begins again
+  ASSERT_TRUE(wait_used(*session, 2));
+  EXPECT_EQ(session->status().counters.rejected, 0u);
+  EXPECT_EQ(session->status().counters.used, 2u);
+}
+
+}  // namespace

@@ -42,7 +42,8 @@ class Session : public std::enable_shared_from_this<Session> {
   // Initial pose (from the topic or a boot config): applied on the session's strand.
   void set_pose(const PoseEstimate& pose);
 
-  // Each request gets a generation; only the newest one may install its plugin.
+  // Each request gets a generation; only the newest one may install its plugin. It also forgets
+  // the last accepted stamps, so a restarted robot whose clock begins again is accepted.
   uint64_t begin_request(uint64_t request_id);
   // Installs a configured plugin on the strand, hands it the last pose and publishes its
   // initial outputs; a request superseded meanwhile is discarded.
