@@ -204,7 +204,7 @@ int command_status(const CommandLine& cl) {
     seen.wait_for(lock, to_ms(timeout_s), [&] {
       if (robot.empty()) return false;
       for (const auto& s : client.statuses()) robot_seen = robot_seen || s.robot_id == robot;
-      return robot_seen;
+      return robot_seen && !client.servers().empty();
     });
   }
   std::vector<SessionStatus> statuses;
