@@ -1,0 +1,191 @@
+// The emoi_markov localizer: configuration errors, bad input, and a short run on a small world.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include "locd/emoi_markov/emoi_markov_localizer.hpp"
+#include "locd/sdk/geometry.hpp"
+#include "locd/sdk/plugin_config.hpp"
+#include "locd/sim_emoi_markov/four_positions.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace locd;
+using namespace locd::emoi;
+namespace sim = locd::sim::emoi;
+
+struct SmallWorld {
+  fs::path directory = fs::temp_directory_path() / ("emoi_localizer_test_" + std::to_string(::getpid()));
+  SmallWorld() {
+    fs::create_directories(directory);
+    sim::SyntheticDsmConfig config;
+    config.size_x_m = config.size_y_m = 60.0;
+    config.resolution_m = 0.2;
+    config.buildings = 4;
+    config.walls = 4;
+    config.trees = 10;
+    write_dsm_geotiff(sim::generate_world(config, 3).surface, directory / "small.tif");
+  }
+  ~SmallWorld() { fs::remove_all(directory); }
+  PluginContext context(size_t max_cells = 50'000'000) const {
+    PluginContext c;
+    c.robot_id = "robot1";
+    c.maps = MapResolver({directory});
+    c.limits.max_map_cells = max_cells;
+    return c;
+  }
+};
+
+Params params_of(const std::string& yaml) { return split_plugin_config(yaml, "test").params; }
+
+std::string config_error(EmoiMarkovLocalizer& localizer, const PluginContext& context, const std::string& yaml) {
+  try {
+    localizer.configure(context, params_of(yaml));
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+const char* kGood = "plugin: emoi_markov\nparams:\n  map: small.tif\n  radii_m: [3, 6]\n  cache: false\n";
+
+TEST(EmoiMarkovConfig, EveryBadParameterIsNamedWithWhatIsAllowed) {
+  SmallWorld world;
+  EmoiMarkovLocalizer localizer;
+  const auto context = world.context();
+  std::string e = config_error(localizer, context, "plugin: emoi_markov\nparams:\n  map: small.tif\n  sigma_m: -1\n");
+  EXPECT_NE(e.find("emoi_markov.sigma_m"), std::string::npos) << e;
+  EXPECT_NE(e.find("-1"), std::string::npos) << e;
+  e = config_error(localizer, context, "plugin: emoi_markov\nparams:\n  map: small.tif\n  heading_source: compass\n");
+  EXPECT_NE(e.find("heading_source"), std::string::npos) << e;
+  EXPECT_NE(e.find("imu"), std::string::npos) << e;
+  e = config_error(localizer, context, "plugin: emoi_markov\nparams:\n  map: small.tif\n  sigma: 0.1\n");
+  EXPECT_NE(e.find("sigma"), std::string::npos) << e;
+  e = config_error(localizer, context,
+                   "plugin: emoi_markov\nparams:\n  map: small.tif\n  min_coverage: 0.8\n  full_coverage: 0.5\n");
+  EXPECT_NE(e.find("full_coverage"), std::string::npos) << e;
+  e = config_error(localizer, context, "plugin: emoi_markov\nparams:\n  radii_m: [5]\n");
+  EXPECT_NE(e.find("map"), std::string::npos) << e;
+}
+
+TEST(EmoiMarkovConfig, MapsResolveOnlyInsideTheMapDirectoriesAndAreBounded) {
+  SmallWorld world;
+  EmoiMarkovLocalizer localizer;
+  EXPECT_NE(config_error(localizer, world.context(), "plugin: emoi_markov\nparams:\n  map: ../small.tif\n").find(".."),
+            std::string::npos);
+  EXPECT_NE(config_error(localizer, world.context(), "plugin: emoi_markov\nparams:\n  map: /etc/passwd\n").find("absolute"),
+            std::string::npos);
+  EXPECT_NE(config_error(localizer, world.context(), "plugin: emoi_markov\nparams:\n  map: none.tif\n").find("not found"),
+            std::string::npos);
+  EXPECT_NE(config_error(localizer, world.context(1000), kGood).find("max_map_cells"), std::string::npos);
+  const std::string too_big =
+      config_error(localizer, world.context(), "plugin: emoi_markov\nparams:\n  map: small.tif\n  radii_m: [40]\n  cache: false\n");
+  EXPECT_NE(too_big.find("does not fit"), std::string::npos) << too_big;
+  EXPECT_EQ(config_error(localizer, world.context(), kGood), "");
+}
+
+TEST(EmoiMarkovInput, BadMeasurementsAreRejectedAndTheSessionGoesOn) {
+  SmallWorld world;
+  EmoiMarkovLocalizer localizer;
+  auto context = world.context();
+  context.limits.max_scan_beams = 100;
+  localizer.configure(context, params_of(kGood));
+  LaserScan scan;
+  scan.ranges.assign(10, 5.0f);
+  scan.range_max = 80.0f;
+  scan.angle_increment = 0.1f;
+  EXPECT_THROW(localizer.update(scan), InputError);  // no odometry yet
+  Odometry odometry;
+  odometry.header.stamp_ns = 1000;
+  EXPECT_NO_THROW(localizer.update(odometry));
+  Odometry earlier = odometry;
+  earlier.header.stamp_ns = 10;
+  EXPECT_THROW(localizer.update(earlier), InputError);
+  Odometry broken = odometry;
+  broken.header.stamp_ns = 2000;
+  broken.pose.translation().x() = std::nan("");
+  EXPECT_THROW(localizer.update(broken), InputError);
+  Imu imu;
+  imu.orientation.coeffs() << 0.0, 0.0, 0.0, 2.0;
+  EXPECT_THROW(localizer.update(imu), InputError);
+  EXPECT_THROW(localizer.update(Image{}), InputError);
+  LaserScan huge = scan;
+  huge.ranges.assign(101, 5.0f);
+  EXPECT_THROW(localizer.update(huge), InputError);
+  PoseEstimate outside;
+  outside.pose.translation() << 500.0, 5.0, 0.0;
+  try {
+    localizer.set_pose(outside);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("outside the DSM"), std::string::npos) << e.what();
+  }
+  scan.ranges[3] = std::nanf("");  // one NaN beam: counted, the scan is used
+  EXPECT_NO_THROW(localizer.update(scan));
+  EXPECT_NO_THROW(localizer.update(odometry));  // still running
+}
+
+TEST(EmoiMarkovInput, InitialPoseGivesAGaussianBelief) {
+  SmallWorld world;
+  EmoiMarkovLocalizer localizer;
+  localizer.configure(world.context(), params_of(std::string(kGood) + "  use_initial_pose: true\n"));
+  PoseEstimate pose;
+  pose.pose = isometry_from_xyz_rpy(20.0, 30.0, 0.0, 0.0, 0.0, 0.3);
+  pose.covariance = Matrix6d::Identity();
+  localizer.set_pose(pose);
+  const auto summary = localizer.grid().summary();
+  EXPECT_NEAR(summary.mode.x(), 20.0, 0.2);
+  EXPECT_NEAR(summary.mode.y(), 30.0, 0.2);
+  EXPECT_NEAR(summary.covariance(0, 0), 1.0, 0.1);
+}
+
+// A short drive on a small world: every sensor update returns a pose, the belief grid and
+// diagnostics; the belief stays normalised and, after the last update, puts the truth well above
+// a uniform belief.
+TEST(EmoiMarkovRun, ShortDriveOnASmallWorld) {
+  sim::FourPositionsScenario scenario;
+  scenario.world.size_x_m = scenario.world.size_y_m = 60.0;
+  scenario.world.resolution_m = 0.2;
+  scenario.world.buildings = 4;
+  scenario.world.walls = 4;
+  scenario.world.trees = 10;
+  scenario.path = {{15, 20}, {27, 20}, {35, 30}, {35, 42}};
+  scenario.laser.rate_hz = 5.0;
+  scenario.laser.beams = 91;
+  const auto run = sim::build_run(scenario, 11);
+  EmoiMarkovLocalizer localizer;
+  EmoiMarkovConfig config;
+  config.map = "in-memory";
+  config.radii_m = {3.0, 6.0};
+  config.update_distance_m = 10.0;
+  config.heading_source = "imu";
+  config.cache = false;
+  config.match_resolution_m = 0.4;
+  config.sensor.min_coverage = 0.05;
+  config.sensor.full_coverage = 0.5;
+  config.base_height_m = scenario.base_height_m;
+  config.local_map.size_m = 4 * 6.0 + 20;
+  localizer.configure(PluginContext{}, config, run.dsm);
+  std::vector<double> truth_probability;
+  size_t updates = 0;
+  sim::simulate_measurements(scenario, run, 11, [&](const Measurement& m, const Eigen::Isometry3d& truth) {
+    const auto before = localizer.sensor_updates();
+    const UpdateResult out = localizer.update(m);
+    if (localizer.sensor_updates() == before) return false;
+    ++updates;
+    EXPECT_TRUE(out.estimate.has_value());
+    EXPECT_TRUE(out.grid.has_value());
+    EXPECT_TRUE(out.estimate->covariance.allFinite());
+    EXPECT_NEAR(cv::sum(localizer.grid().belief())[0], 1.0, 1e-4);
+    int row = 0, col = 0;
+    EXPECT_TRUE(localizer.grid().geometry().index_of(truth.translation().head<2>(), row, col));
+    truth_probability.push_back(localizer.grid().belief()(row, col) * localizer.grid().geometry().size());
+    return false;
+  });
+  EXPECT_GE(updates, 3u);
+  ASSERT_FALSE(truth_probability.empty());
+  EXPECT_GT(truth_probability.back(), 10.0);  // ten times a uniform belief at least
+}
+
+}  // namespace
