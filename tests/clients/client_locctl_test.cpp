@@ -204,6 +204,12 @@ TEST(Locctl, NoServerFailsNamingTheDomainAndCycloneddsUri) {
   const LocctlRun watch = locctl(dir, {"--domain", domain, "--timeout", "0.5", "watch", "robot1"});
   EXPECT_EQ(watch.exit_code, 1);
   EXPECT_TRUE(contains(watch.output, "no pose for robot 'robot1' within 0.5 s")) << watch.output;
+
+  // Without --count or --timeout, watch runs until Ctrl-C and then ends normally.
+  test::ChildProcess endless(locctl_path(), {"--domain", domain, "watch", "robot1"}, (dir.path() / "endless.log").string());
+  std::this_thread::sleep_for(300ms);
+  endless.signal(SIGINT);
+  EXPECT_EQ(endless.wait(10s), 0) << endless.output();
 }
 
 TEST(Locctl, UseStatusPluginsAndStopAgainstTheServer) {
