@@ -95,13 +95,11 @@ TEST_F(ScenarioFiles, ErrorsNameTheKey) {
   EXPECT_NE(error_of("name: x\nrobot: [\n").find("line"), std::string::npos);
 }
 
-TEST_F(ScenarioFiles, PluginConfigRejectsUnknownTopLevelKeys) {
-  try {
-    locd::sim::parse_plugin_config("plugin: feature_ekf\nparameters: {}\n", "ekf.yaml");
-    FAIL() << "accepted an unknown key";
-  } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("unknown parameter 'parameters'"), std::string::npos) << e.what();
-  }
+TEST_F(ScenarioFiles, BadLocalizerConfigNamesTheFile) {
+  std::ofstream(root_ / "plugins" / "ekf.yaml") << "plugin: feature_ekf\nparameters: {}\n";
+  const std::string error = error_of(scenario());
+  EXPECT_NE(error.find("parameters"), std::string::npos) << error;
+  EXPECT_NE(error.find("ekf.yaml"), std::string::npos) << error;
 }
 
 TEST_F(ScenarioFiles, SimulationStreamsInStampOrderAtTheConfiguredRates) {

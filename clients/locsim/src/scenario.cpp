@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "locd/sdk/plugin.hpp"
+#include "locd/sdk/plugin_config.hpp"
 
 namespace locd::sim {
 
@@ -58,20 +59,6 @@ RobotSpec parse_robot(const Params& p) {
 
 }  // namespace
 
-PluginConfig parse_plugin_config(const std::string& text, const std::string& source) {
-  const Params root = Params::parse(text, source);
-  try {
-    root.expect_only({"plugin", "params"});
-  } catch (const ConfigError& e) {
-    throw ConfigError(source + ": " + e.what());
-  }
-  PluginConfig config;
-  config.plugin = root.required_text("plugin");
-  const Params params = root.child("params");
-  config.params = Params(params.node(), config.plugin);
-  return config;
-}
-
 Scenario parse_scenario(const std::string& text, const std::string& source, const fs::path& base_directory) {
   const Params p = Params::parse(text, source);
   p.expect_only({"name", "seed", "duration_s", "map", "map_directories", "robot", "sensors", "localizer",
@@ -119,7 +106,12 @@ Scenario parse_scenario(const std::string& text, const std::string& source, cons
   } catch (const ConfigError& e) {
     loc.fail("config_file", std::string("cannot be used: ") + e.what());
   }
-  const PluginConfig plugin = parse_plugin_config(s.localizer.config_text, s.localizer.config_file.string());
+  PluginConfig plugin;
+  try {
+    plugin = split_plugin_config(s.localizer.config_text, s.localizer.config_file.string());
+  } catch (const ConfigError& e) {
+    loc.fail("config_file", "= '" + s.localizer.config_file.string() + "' is not a valid plugin config: " + e.what());
+  }
   s.localizer.plugin = plugin.plugin;
   s.localizer.params = plugin.params;
   s.localizer.initial_pose_offset = pose_of(loc, "initial_pose_offset", {});

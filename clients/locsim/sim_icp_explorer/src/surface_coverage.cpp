@@ -21,7 +21,7 @@ int64_t SurfaceCoverage::key(const Eigen::Vector3f& p) const {
 
 SurfaceCoverage::SurfaceCoverage(const IndoorWorld& world, const Scanner3DConfig& reference_scanner,
                                  double voxel_size, double grid_step, double robot_radius,
-                                 const Eigen::Vector2d& start)
+                                 const Eigen::Vector2d& start, int scan_every)
     : voxel_size_(voxel_size) {
   Scanner3DConfig config = reference_scanner;
   config.range_stddev = 0.0;
@@ -45,10 +45,12 @@ SurfaceCoverage::SurfaceCoverage(const IndoorWorld& world, const Scanner3DConfig
     queue.emplace_back(c0, r0);
     seen[static_cast<size_t>(r0) * columns + c0] = 1;
   }
+  std::vector<Eigen::Vector2d> scanned;
   while (!queue.empty()) {
     const auto [c, r] = queue.front();
     queue.pop_front();
     positions_.push_back(centre(c, r));
+    if (c % scan_every == 0 && r % scan_every == 0) scanned.push_back(centre(c, r));
     const int dc[4] = {1, -1, 0, 0}, dr[4] = {0, 0, 1, -1};
     for (int k = 0; k < 4; ++k) {
       const int nc = c + dc[k], nr = r + dr[k];
@@ -61,7 +63,7 @@ SurfaceCoverage::SurfaceCoverage(const IndoorWorld& world, const Scanner3DConfig
   }
   std::mt19937_64 rng(1);
   const size_t first_person = world.boxes().size();
-  for (const auto& xy : positions_) {
+  for (const auto& xy : scanned) {
     const SimulatedScan s = scanner.scan(world, Pose2(xy.x(), xy.y(), 0.0).to_isometry(), 0.0, 0, rng);
     for (size_t i = 0; i < s.points_in_world.size(); ++i)
       if (static_cast<size_t>(s.hit_object[i]) < first_person) reference_.insert(key(s.points_in_world[i]));

@@ -61,14 +61,6 @@ struct Scenario {
   double convergence_threshold_m = 0.2;
 };
 
-// A plugin config (`plugin: name`, `params: {...}`), as in config/plugins/*.yaml. Unknown
-// top-level keys are an error; params are rooted at the plugin's name for messages.
-struct PluginConfig {
-  std::string plugin;
-  Params params;
-};
-PluginConfig parse_plugin_config(const std::string& text, const std::string& source);
-
 // Relative paths in the text are resolved against base_directory.
 Scenario parse_scenario(const std::string& text, const std::string& source,
                         const std::filesystem::path& base_directory);

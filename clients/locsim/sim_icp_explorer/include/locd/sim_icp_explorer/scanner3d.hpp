@@ -20,7 +20,7 @@ struct Scanner3DConfig {
   double max_range = 20.0;            // m
   double range_stddev = 0.005;        // m
   double intensity_stddev = 0.02;
-  double incidence_shading = 0.3;     // intensity = reflectivity * (1 - s + s * |cos incidence|)
+  double incidence_shading = 0.2;     // intensity = reflectivity * (1 - s + s * |cos incidence|)
   double sensor_height = 0.8;         // m, sensor above base_link
   bool with_intensity = true;
 

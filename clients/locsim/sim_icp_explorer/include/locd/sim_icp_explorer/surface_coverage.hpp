@@ -16,16 +16,17 @@ namespace locd::sim {
 
 class SurfaceCoverage {
  public:
-  // Reference from virtual scans (reference_scanner, no noise) at every grid_step position whose
-  // footprint (robot_radius) is free and that is reachable by 4-connected steps from `start`.
+  // Reference from virtual scans (reference_scanner, no noise) at the grid_step positions whose
+  // footprint (robot_radius) is free and that are reachable by 4-connected steps from `start`;
+  // every scan_every-th of them in x and y is scanned.
   SurfaceCoverage(const IndoorWorld& world, const Scanner3DConfig& reference_scanner, double voxel_size,
-                  double grid_step, double robot_radius, const Eigen::Vector2d& start);
+                  double grid_step, double robot_radius, const Eigen::Vector2d& start, int scan_every = 1);
 
   void add(const SimulatedScan& scan, const IndoorWorld& world);
   double ratio() const;  // covered reference voxels / reference voxels
   size_t reference_voxels() const { return reference_.size(); }
   size_t covered_voxels() const { return covered_.size(); }
-  // The free, reachable grid positions the reference was built from.
+  // The free, reachable grid positions the reference was built from (scanned or not).
   const std::vector<Eigen::Vector2d>& reachable_positions() const { return positions_; }
 
  private:
