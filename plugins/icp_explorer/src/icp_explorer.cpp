@@ -84,7 +84,7 @@ ScanOutcome IcpExplorer::add_scan(const PointCloud& cloud) {
   }
 
   start = std::chrono::steady_clock::now();
-  model_.insert(transformed(dense, out.T_map_base));
+  model_.insert(transformed(dense, out.T_map_base), (out.T_map_base * cloud.sensor_pose).translation());
   out.model_update_ms = ms_since(start);
 
   const Eigen::Vector3d scanner = (out.T_map_base * cloud.sensor_pose).translation();

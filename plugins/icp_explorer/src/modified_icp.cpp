@@ -58,8 +58,9 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
     Matrix6d H = Matrix6d::Zero();
     Vector6d g = Vector6d::Zero();
     RegistrationResult step;
-    double squared_error = 0.0;
+    double squared_error = 0.0, weight_sum = 0.0;
     const double kernel2 = kernel * kernel;
+    const Eigen::Vector3d scanner = result.T_map_base * rejector.sensor_in_base();
     for (size_t i = 0; i < scan.points.size(); ++i) {
       const Eigen::Vector3d& p = scan.points[i];
       const Eigen::Vector3d x = result.T_map_base * p;
@@ -76,13 +77,18 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
       ++step.counts[static_cast<size_t>(verdict)];
       if (verdict != Rejection::kAccepted) continue;
       const Eigen::Vector3d& n = model.normals()[j];
+      if (n.dot(scanner - q) < 0.0) {
+        ++step.back_facing;
+        continue;
+      }
       if (settings.metric == IcpMetric::kPointToPlane && !n.isZero()) {
         const double r = n.dot(x - q);
         const double w = kernel2 / ((kernel2 + r * r) * (kernel2 + r * r)) * kernel2;  // Geman-McClure
         const auto J = point_to_plane_jacobian(x, n);
         H.noalias() += w * J.transpose() * J;
         g.noalias() += w * J.transpose() * r;
-        squared_error += r * r;
+        squared_error += w * r * r;
+        weight_sum += w;
       } else {
         const Eigen::Vector3d r = x - q;
         const double r2 = r.squaredNorm();
@@ -90,15 +96,17 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
         const auto J = point_to_point_jacobian(x);
         H.noalias() += w * J.transpose() * J;
         g.noalias() += w * J.transpose() * r;
-        squared_error += r2;
+        squared_error += w * r2;
+        weight_sum += w;
       }
       ++step.correspondences;
     }
     result.iterations = iteration + 1;
     result.counts = step.counts;
     result.beyond_distance = step.beyond_distance;
+    result.back_facing = step.back_facing;
     result.correspondences = step.correspondences;
-    result.rms_error = step.correspondences ? std::sqrt(squared_error / step.correspondences) : 0.0;
+    result.rms_error = weight_sum > 0.0 ? std::sqrt(squared_error / weight_sum) : 0.0;
     result.information = H;
     if (step.correspondences < 6) break;
     const Vector6d xi = -H.ldlt().solve(g);

@@ -47,7 +47,7 @@ void VoxelMap::clear() {
   tree_.reset();
 }
 
-void VoxelMap::insert(const ScanPoints& scan) {
+void VoxelMap::insert(const ScanPoints& scan, const std::optional<Eigen::Vector3d>& viewpoint) {
   std::vector<uint32_t> touched;
   touched.reserve(scan.size());
   std::vector<char> was_touched(points_.size(), 0);
@@ -80,16 +80,21 @@ void VoxelMap::insert(const ScanPoints& scan) {
     }
   }
   tree_ = std::make_unique<KdTree>(&points_);
-  refresh_normals(touched);
+  refresh_normals(touched, viewpoint);
 }
 
-void VoxelMap::refresh_normals(const std::vector<uint32_t>& touched) {
+void VoxelMap::refresh_normals(const std::vector<uint32_t>& touched, const std::optional<Eigen::Vector3d>& viewpoint) {
   const size_t k = static_cast<size_t>(normal_neighbours_);
   std::vector<uint32_t> indices(k);
   std::vector<double> distances(k);
   for (uint32_t v : touched) {
-    const size_t found = tree_->tree.knnSearch(points_[v].data(), k, indices.data(), distances.data());
-    if (found < 3) {
+    size_t found = tree_->tree.knnSearch(points_[v].data(), k, indices.data(), distances.data());
+    // Only neighbours close enough to share the surface (a few voxels away) define a normal.
+    const double reach2 = 9.0 * voxel_size_ * voxel_size_ * normal_neighbours_ / 4.0;
+    size_t close = 0;
+    while (close < found && distances[close] <= reach2) ++close;
+    found = close;
+    if (found < 5) {
       normals_[v].setZero();
       continue;
     }
@@ -103,12 +108,15 @@ void VoxelMap::refresh_normals(const std::vector<uint32_t>& touched) {
     }
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
     const Eigen::Vector3d eigenvalues = solver.eigenvalues();  // ascending
-    // A normal only where the neighbourhood is planar: smallest spread well below the others.
-    if (eigenvalues(1) <= 0.0 || eigenvalues(0) > 0.1 * eigenvalues(1)) {
+    // A normal only where the neighbourhood is a plane: spread in two directions (not a line),
+    // the third spread well below them.
+    if (eigenvalues(2) <= 0.0 || eigenvalues(1) < 0.05 * eigenvalues(2) || eigenvalues(0) > 0.1 * eigenvalues(1)) {
       normals_[v].setZero();
       continue;
     }
-    normals_[v] = solver.eigenvectors().col(0).normalized();
+    Eigen::Vector3d normal = solver.eigenvectors().col(0).normalized();
+    if (viewpoint && normal.dot(*viewpoint - points_[v]) < 0.0) normal = -normal;
+    normals_[v] = normal;
   }
 }
 

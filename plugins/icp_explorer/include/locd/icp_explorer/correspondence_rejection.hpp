@@ -34,7 +34,7 @@ struct RejectionRules {
   bool overlap = true;          // (b)
   bool error_length = true;     // (c)
   bool error_direction = true;  // (d)
-  double intensity_threshold = 0.2;
+  double intensity_threshold = 0.25;
   double max_range = 20.0;      // m, the scanner's
 };
 
@@ -58,6 +58,7 @@ class CorrespondenceRejector {
   bool error_direction_possible(const Eigen::Vector3d& point_in_base, const Eigen::Vector3d& model_point) const;
 
   const RejectionRules& rules() const { return rules_; }
+  const Eigen::Vector3d& sensor_in_base() const { return sensor_in_base_; }
   // Switches rule (a) off for scans without intensity.
   void disable_intensity() { rules_.intensity = false; }
 

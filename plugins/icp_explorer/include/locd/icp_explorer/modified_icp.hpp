@@ -1,6 +1,8 @@
 // Scan-to-model registration (paper eq. 1) by Gauss-Newton on SE(3): nearest model centroid per
 // data point (kd-tree), the correspondence rejection of section 2.1 (CorrespondenceRejector),
-// point-to-plane residuals where the model has a normal (point-to-point elsewhere, or everywhere
+// point-to-plane residuals where the model has a normal (model normals face the scanners that saw
+// them: a model surface facing away from the scanner cannot be what it sees, so such pairs,
+// typically the far face of a thin wall, are skipped), (point-to-point elsewhere, or everywhere
 // when asked), and a Geman-McClure robust kernel whose scale halves from initial_kernel_scale
 // down to kernel_scale each time the pose settles at the current scale (coarse to fine).
 // Updates are left-multiplied: T <- exp(xi) T.
@@ -38,7 +40,8 @@ struct RegistrationResult {
   size_t correspondences = 0;                  // accepted in the last iteration
   std::array<size_t, kRejectionKinds> counts{};  // last iteration, by Rejection (kAccepted included)
   size_t beyond_distance = 0;                  // last iteration, farther than max_correspondence_distance
-  double rms_error = 0.0;                      // m, accepted residuals of the last iteration
+  size_t back_facing = 0;                      // last iteration, model surface facing away from the scanner
+  double rms_error = 0.0;                      // m, kernel-weighted RMS residual, last iteration
   Matrix6d information = Matrix6d::Zero();     // J^T W J of the last iteration, (xi = v, omega)
 };
 

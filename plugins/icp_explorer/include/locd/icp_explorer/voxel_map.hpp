@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 #include <memory>
+#include <optional>
 #include <unordered_map>
 #include <vector>
 
@@ -21,14 +22,16 @@ class VoxelMap {
   VoxelMap(VoxelMap&&) noexcept;
   VoxelMap& operator=(VoxelMap&&) noexcept;
 
-  void insert(const ScanPoints& points_in_map);
+  // viewpoint: the scanner position of this scan; the touched normals are turned to face it
+  // (a surface faces the scanners that see it), which lets ICP skip back faces of thin walls.
+  void insert(const ScanPoints& points_in_map, const std::optional<Eigen::Vector3d>& viewpoint = std::nullopt);
   void clear();
 
   bool empty() const { return points_.empty(); }
   size_t size() const { return points_.size(); }
   double voxel_size() const { return voxel_size_; }
   const std::vector<Eigen::Vector3d>& points() const { return points_; }
-  const std::vector<Eigen::Vector3d>& normals() const { return normals_; }  // unit; zero when undefined
+  const std::vector<Eigen::Vector3d>& normals() const { return normals_; }  // unit, facing the scanners; zero when undefined
   const std::vector<float>& intensity() const { return intensity_; }       // NaN where no intensity came
   bool has_intensity(size_t i) const { return intensity_count_[i] > 0; }
 
@@ -40,7 +43,7 @@ class VoxelMap {
 
  private:
   struct KdTree;
-  void refresh_normals(const std::vector<uint32_t>& touched);
+  void refresh_normals(const std::vector<uint32_t>& touched, const std::optional<Eigen::Vector3d>& viewpoint);
 
   double voxel_size_;
   double inverse_voxel_size_;

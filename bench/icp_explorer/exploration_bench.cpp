@@ -1,0 +1,50 @@
+// Exploration of the four-room world to the target coverage: next-best-view (layered hexahedral
+// map, eq. 2-4) versus the nearest-frontier baseline, same world, seeds, odometry error and
+// registration, in the same run. One iteration each (an exploration is a whole mission).
+#include <benchmark/benchmark.h>
+
+#include "exploration_run.hpp"
+
+namespace {
+
+constexpr double kTargetCoverage = 0.95;
+constexpr int kMaxScans = 40;
+
+const locd::sim::IndoorWorld& world() {
+  static const locd::sim::IndoorWorld w =
+      locd::sim::IndoorWorld::load(locd::bench::source_dir() + "/config/maps/four_rooms_3d.yaml");
+  return w;
+}
+
+const locd::sim::SurfaceCoverage& reference() {
+  static const locd::sim::SurfaceCoverage c = [] {
+    // Scans from every free, reachable metre (a 0.5 m grid, every other point scanned), with the
+    // mission's scanner: the observable static surface.
+    locd::sim::Scanner3DConfig dense;
+    return locd::sim::SurfaceCoverage(world(), dense, 0.2, 0.5, 0.3, Eigen::Vector2d(3.0, 3.0), 2);
+  }();
+  return c;
+}
+
+void BM_Explore(benchmark::State& state, locd::bench::Strategy strategy) {
+  const uint64_t seed = static_cast<uint64_t>(state.range(0));
+  locd::bench::ExplorationRun run;
+  for (auto _ : state) run = locd::bench::explore(strategy, seed, kMaxScans, kTargetCoverage, reference(), world());
+  state.counters["scans_to_95"] = run.scans_to_target;
+  state.counters["scans"] = run.scans;
+  state.counters["coverage"] = run.coverage;
+  state.counters["path_m"] = run.path_length;
+  state.counters["max_error_cm"] = run.max_error_cm;
+  state.counters["max_error_deg"] = run.max_error_deg;
+  state.counters["reference_voxels"] = static_cast<double>(reference().reference_voxels());
+  state.counters["reference_positions"] = static_cast<double>(reference().reachable_positions().size());
+}
+
+}  // namespace
+
+BENCHMARK_CAPTURE(BM_Explore, next_best_view, locd::bench::Strategy::kNextBestView)
+    ->Arg(1)->Arg(2)->Arg(3)->Iterations(1)->Unit(benchmark::kSecond);
+BENCHMARK_CAPTURE(BM_Explore, nearest_frontier, locd::bench::Strategy::kNearestFrontier)
+    ->Arg(1)->Arg(2)->Arg(3)->Iterations(1)->Unit(benchmark::kSecond);
+
+BENCHMARK_MAIN();
