@@ -287,6 +287,8 @@ TEST(ClientLibrary, PosesReachCallbacksFilteredByRobot) {
   Client client({kDomainPoses, "", 8});
   std::mutex mutex;
   std::vector<PoseUpdate> only_a, every_robot;
+  // A callback that throws is reported and does not stop delivery to the others.
+  client.on_pose([](const PoseUpdate&) { throw std::runtime_error("callback failure on purpose"); });
   client.on_pose([&](const PoseUpdate& p) { std::lock_guard<std::mutex> l(mutex); only_a.push_back(p); }, "robot_a");
   client.on_pose([&](const PoseUpdate& p) { std::lock_guard<std::mutex> l(mutex); every_robot.push_back(p); });
   ASSERT_TRUE(eventually([&] { return poses.matched() > 0; }));

@@ -87,6 +87,19 @@ uint64_t fresh_request_id() {
   return id;
 }
 
+// A user callback runs on Cyclone's listener thread, under C frames: an exception must not
+// escape it. It is reported and the next sample is delivered as usual.
+template <typename Callback, typename Value>
+void run_callback(const Callback& callback, const Value& value, const char* which) {
+  try {
+    callback(value);
+  } catch (const std::exception& e) {
+    std::cerr << "locd client: the " << which << " callback threw: " << e.what() << "\n";
+  } catch (...) {
+    std::cerr << "locd client: the " << which << " callback threw a non-standard exception\n";
+  }
+}
+
 template <typename Callback>
 struct Subscription {
   Callback callback;
@@ -154,7 +167,7 @@ struct Client::Impl {
       subscribers = pose_subscribers;
     }
     for (const auto& s : subscribers) {
-      if (s.robot_filter.empty() || s.robot_filter == update.robot_id) s.callback(update);
+      if (s.robot_filter.empty() || s.robot_filter == update.robot_id) run_callback(s.callback, update, "on_pose");
     }
   }
 
@@ -174,7 +187,7 @@ struct Client::Impl {
     }
     changed.notify_all();
     for (const auto& s : subscribers) {
-      if (s.robot_filter.empty() || s.robot_filter == status.robot_id) s.callback(status);
+      if (s.robot_filter.empty() || s.robot_filter == status.robot_id) run_callback(s.callback, status, "on_status");
     }
   }
 
