@@ -81,6 +81,9 @@ class Client {
 
   // Sends a session request and waits for the status that answers it (matching request_id).
   // Returns nullopt on timeout. The returned status says request_ok and the server's message.
+  // A "starting" status only says the request arrived and is not taken as the answer; statuses
+  // of other robots or with another request_id are never taken either. Throws
+  // std::invalid_argument when plugin or config_yaml exceed their wire bounds (64 / 262144 bytes).
   std::optional<SessionStatus> request_session(const std::string& plugin, const std::string& config_yaml,
                                                std::chrono::milliseconds timeout);
   std::optional<SessionStatus> stop_session(std::chrono::milliseconds timeout);
