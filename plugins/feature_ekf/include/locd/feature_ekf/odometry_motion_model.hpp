@@ -9,11 +9,14 @@
 namespace locd::feature_ekf {
 
 // Control noise grows with the motion: sigma_v = a |V| + b, sigma_gamma = c |gamma| + d |V dt| + e.
+// These are per odometry step, so the variance accumulated over a metre scales with the step
+// length: the defaults suit 50 Hz wheel odometry at about 1 m/s drifting ~2-3 % of the distance
+// and ~1 deg per metre (per square-root metre, as a random walk).
 struct MotionNoiseConfig {
-  double speed_stddev_per_speed = 0.05;       // a, (m/s) per (m/s)
+  double speed_stddev_per_speed = 0.2;        // a, (m/s) per (m/s)
   double speed_stddev_floor = 0.01;           // b, m/s
-  double turn_stddev_per_turn = 0.05;         // c, rad per rad
-  double turn_stddev_per_distance = 0.02;     // d, rad per m
+  double turn_stddev_per_turn = 0.15;         // c, rad per rad
+  double turn_stddev_per_distance = 0.12;     // d, rad per m
   double turn_stddev_floor = 0.001;           // e, rad
 };
 
