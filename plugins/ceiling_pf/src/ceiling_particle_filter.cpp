@@ -74,6 +74,7 @@ void CeilingParticleFilter::set_pose(const Pose2& mean, const Eigen::Matrix3d& c
   }
   mode_ = mean;
   w_slow_ = w_fast_ = 0.0;
+  just_injected_.clear();
 }
 
 void CeilingParticleFilter::set_unknown() {
@@ -84,6 +85,7 @@ void CeilingParticleFilter::set_unknown() {
 
 void CeilingParticleFilter::set_particles(std::vector<Particle> particles) {
   particles_ = std::move(particles);
+  just_injected_.clear();
   normalize_weights();
   mode_.reset();
 }
@@ -102,7 +104,8 @@ void CeilingParticleFilter::predict(const VelocityCommand& u) {
 }
 
 double CeilingParticleFilter::log_likelihood(const Pose2& pose, const std::vector<Detection>& detections,
-                                             std::vector<Association>* associations) const {
+                                             std::vector<Association>* associations, double* explained) const {
+  if (explained) *explained = 0.0;
   const auto& landmarks = index_->landmarks();
   const double c = std::cos(pose.theta), s = std::sin(pose.theta);
   const double sr = config_.range_stddev;
@@ -133,8 +136,13 @@ double CeilingParticleFilter::log_likelihood(const Pose2& pose, const std::vecto
         best_id = candidates[i];
       }
     }
-    const double hit = config_.hit_fraction * std::exp(-0.5 * best) / (2.0 * M_PI * sr * sb);
-    total += std::log(hit + outlier);
+    // Eq. 8-9 divided by their peak (a factor shared by all particles for this detection, so
+    // the weights are unchanged): 1 is a perfect fit whatever the detection's range.
+    const double peak = config_.hit_fraction / (2.0 * M_PI * sr * sb);
+    const double hit = peak * std::exp(-0.5 * best);
+    const double fit = (hit + outlier) / (peak + outlier);
+    total += std::log(fit);
+    if (explained) *explained += fit / static_cast<double>(detections.size());
     if (associations) {
       (*associations)[k] = {hit > outlier ? best_id : -1, best, std::min(n, config_.candidates)};
     }
@@ -153,17 +161,24 @@ CorrectionReport CeilingParticleFilter::correct(const std::vector<Detection>& de
     for (const Pose2& p : poses) particles_.push_back({p, 1.0 / static_cast<double>(poses.size())});
     report.global_start = true;
     w_slow_ = w_fast_ = 0.0;
+    just_injected_.clear();
   }
   const size_t n = particles_.size();
-  std::vector<double> log_w(n), log_prior_times_likelihood(n);
+  std::vector<double> log_w(n);
+  // For augmented MCL: the prior-weighted mean share of detections a particle explains (fit
+  // in [0, 1] per detection), over the particles not just injected: counting those would lower
+  // the average by the share injected and so keep injecting (a self-sustaining loop).
+  double explained_sum = 0.0, settled_prior = 0.0;
   for (size_t m = 0; m < n; ++m) {
-    const double ll = log_likelihood(particles_[m].pose, detections);
-    const double prior = std::log(std::max(particles_[m].weight, 1e-300));
-    log_w[m] = prior + ll;
+    double explained = 0.0;
+    const double ll = log_likelihood(particles_[m].pose, detections, nullptr, &explained);
+    log_w[m] = std::log(std::max(particles_[m].weight, 1e-300)) + ll;
+    if (m < just_injected_.size() && just_injected_[m]) continue;
+    explained_sum += particles_[m].weight * explained;
+    settled_prior += particles_[m].weight;
   }
-  // Marginal likelihood of the frame, per detection (geometric mean), for augmented MCL.
   const double log_marginal = log_sum_exp(log_w);
-  report.mean_likelihood = std::exp(log_marginal / static_cast<double>(detections.size()));
+  report.mean_likelihood = settled_prior > 0.0 ? explained_sum / settled_prior : 0.0;
   if (w_slow_ <= 0.0 || w_fast_ <= 0.0) {
     w_slow_ = w_fast_ = report.mean_likelihood;
   } else {
@@ -178,10 +193,22 @@ CorrectionReport CeilingParticleFilter::correct(const std::vector<Detection>& de
 
   const size_t best = static_cast<size_t>(std::max_element(weights.begin(), weights.end()) - weights.begin());
   log_likelihood(particles_[best].pose, detections, &report.associations);
-  mode_ = cluster_estimate(particles_[best].pose).pose;
+  // The mode: the heavier of the clusters around the previous mode and around the best
+  // particle (a lone particle that fits one detection must not move the estimate).
+  FilterEstimate around_best = cluster_estimate(particles_[best].pose);
+  if (mode_) {
+    const FilterEstimate around_previous = cluster_estimate(*mode_);
+    if (around_previous.cluster_mass >= around_best.cluster_mass) around_best = around_previous;
+  }
+  mode_ = around_best.pose;
 
+  // Table 8.3's max(0, 1 - w_fast / w_slow), only once the short-term average has fallen well
+  // below the long-term one: the fit of a well-localized set also swings with the geometry (one
+  // landmark near the image centre, turns), and with a single landmark in view every injected
+  // particle fits as well as the true ones, so small injections would erode the true cluster.
+  const double ratio = w_slow_ > 0.0 ? w_fast_ / w_slow_ : 1.0;
   report.injection_probability =
-      config_.recovery && w_slow_ > 0.0 ? std::max(0.0, 1.0 - w_fast_ / w_slow_) : 0.0;
+      config_.recovery && 1.0 - ratio >= config_.min_injection_probability ? 1.0 - ratio : 0.0;
   const bool degenerate = report.effective_sample_size < config_.resample_ess_fraction * static_cast<double>(n);
   if (degenerate || report.injection_probability > 0.0) {
     resample(detections, report);
@@ -243,6 +270,8 @@ void CeilingParticleFilter::resample(const std::vector<Detection>& detections, C
     if (count == next.size()) break;
   }
   particles_ = std::move(next);
+  just_injected_.assign(particles_.size(), false);
+  std::fill(just_injected_.end() - static_cast<std::ptrdiff_t>(report.injected), just_injected_.end(), true);
   normalize_weights();
   report.resampled = true;
 }

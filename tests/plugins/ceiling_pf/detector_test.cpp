@@ -32,9 +32,9 @@ struct RecallCase {
   double min_recall;
 };
 
-class DetectorRecall : public ::testing::TestWithParam<RecallCase> {};
+class CeilingPfDetectorRecall : public ::testing::TestWithParam<RecallCase> {};
 
-TEST_P(DetectorRecall, HoughFindsTheLandmarksInRenderedFrames) {
+TEST_P(CeilingPfDetectorRecall, HoughFindsTheLandmarksInRenderedFrames) {
   ScenarioCamera sc = scenario_camera();
   if (GetParam().noise_stddev >= 0.0) sc.camera.noise_stddev = GetParam().noise_stddev;
   const simc::CeilingWorld world(sc.world);
@@ -83,11 +83,11 @@ TEST_P(DetectorRecall, HoughFindsTheLandmarksInRenderedFrames) {
   EXPECT_LT(std::sqrt(point_error2 / found), 0.01) << "ceiling point error, metres";
 }
 
-INSTANTIATE_TEST_SUITE_P(Noise, DetectorRecall,
+INSTANTIATE_TEST_SUITE_P(Noise, CeilingPfDetectorRecall,
                          ::testing::Values(RecallCase{"configured", -1.0, 0.95}, RecallCase{"noisier", 12.0, 0.95}),
                          [](const auto& info) { return std::string(info.param.name); });
 
-TEST(Detector, EmptyCeilingGivesNoCircles) {
+TEST(CeilingPfDetector, EmptyCeilingGivesNoCircles) {
   cv::Mat flat(480, 640, CV_8UC1, cv::Scalar(90));
   cv::randn(flat, 90, 6);
   CeilingDetector detector{DetectorConfig{}};

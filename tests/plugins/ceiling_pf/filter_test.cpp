@@ -34,7 +34,7 @@ std::vector<Eigen::Vector2d> square_grid(int n, double spacing) {
 
 }  // namespace
 
-TEST(Association, PicksTheMostLikelyOfTheNearestOnAnAmbiguousGrid) {
+TEST(CeilingPfAssociation, PicksTheMostLikelyOfTheNearestOnAnAmbiguousGrid) {
   const auto grid = square_grid(6, 3.0);  // identical landmarks every 3 m: every cell looks alike
   auto index = std::make_shared<NearestLandmarkIndex>(grid, 3, 0.5, 4.0, 1'000'000);
   ParticleFilterConfig config;
@@ -65,7 +65,7 @@ TEST(Association, PicksTheMostLikelyOfTheNearestOnAnAmbiguousGrid) {
   for (size_t k = 0; k < a.size(); ++k) EXPECT_EQ(a[k].landmark, seen[k]);
 }
 
-TEST(Association, LikelihoodIsTheProductOfRangeAndBearingGaussians) {
+TEST(CeilingPfAssociation, LikelihoodIsTheProductOfRangeAndBearingGaussians) {
   const std::vector<Eigen::Vector2d> one{{2.0, 0.0}, {50.0, 50.0}};
   auto index = std::make_shared<NearestLandmarkIndex>(one, 1, 0.5, 4.0, 1'000'000);
   ParticleFilterConfig config;
@@ -76,11 +76,17 @@ TEST(Association, LikelihoodIsTheProductOfRangeAndBearingGaussians) {
   const double ll = filter.log_likelihood(Pose2(), {z});
   const double sb = std::sqrt(config.bearing_stddev * config.bearing_stddev +
                               config.range_stddev * config.range_stddev / (z.range * z.range));
-  const double expected = std::log(normal_pdf(z.range - 2.0, config.range_stddev) * normal_pdf(z.bearing, sb));
+  // Each detection's factor is divided by its peak 1 / (2 pi sr sb), shared by all particles.
+  const double expected = std::log(normal_pdf(z.range - 2.0, config.range_stddev) * normal_pdf(z.bearing, sb) *
+                                   2.0 * M_PI * config.range_stddev * sb);
   EXPECT_NEAR(ll, expected, 1e-9);
+  double explained = 0.0;
+  filter.log_likelihood(Pose2(), {z}, nullptr, &explained);
+  EXPECT_NEAR(explained, std::exp(expected), 1e-12);
+  EXPECT_NEAR(filter.log_likelihood(Pose2(-0.03, -0.04, 0.0), {z}), 0.0, 1e-6) << "perfect fit";
 }
 
-TEST(Resampling, LowVarianceKeepsTheWeightedMean) {
+TEST(CeilingPfResampling, LowVarianceKeepsTheWeightedMean) {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> x(-5, 5), w(0, 1);
   std::vector<double> values(200), weights(200);
@@ -110,7 +116,7 @@ TEST(Resampling, LowVarianceKeepsTheWeightedMean) {
   EXPECT_GT(standard_error, 0.0);
 }
 
-TEST(KldSampling, BoundFollowsTheChiSquareApproximation) {
+TEST(CeilingPfKldSampling, BoundFollowsTheChiSquareApproximation) {
   EXPECT_EQ(CeilingParticleFilter::kld_particles(1, 0.05, 0.99), 0u);
   // Fox 2003: n = chi2_{k-1, 1-delta} / (2 epsilon); chi2(0.99, 1) = 6.635, chi2(0.99, 100) = 135.8.
   EXPECT_NEAR(static_cast<double>(CeilingParticleFilter::kld_particles(2, 0.05, 0.99)), 66.35, 1.5);
@@ -118,7 +124,7 @@ TEST(KldSampling, BoundFollowsTheChiSquareApproximation) {
   EXPECT_LT(CeilingParticleFilter::kld_particles(50, 0.05, 0.99), CeilingParticleFilter::kld_particles(51, 0.05, 0.99));
 }
 
-TEST(Filter, FramesWithZeroOrOneDetectionKeepItRunning) {
+TEST(CeilingPfFilter, FramesWithZeroOrOneDetectionKeepItRunning) {
   const auto grid = square_grid(6, 3.0);
   auto index = std::make_shared<NearestLandmarkIndex>(grid, 3, 0.5, 4.0, 1'000'000);
   ParticleFilterConfig config;
@@ -220,7 +226,7 @@ DriveOutcome drive(const SmallHall& hall, CeilingParticleFilter& filter, uint64_
 
 }  // namespace
 
-TEST(Filter, GlobalLocalizationConvergesOnASmallMap) {
+TEST(CeilingPfFilter, GlobalLocalizationConvergesOnASmallMap) {
   const SmallHall hall;
   ParticleFilterConfig config;
   config.max_range = hall.camera->config().fx > 0 ? 4.0 : 4.0;
@@ -240,7 +246,7 @@ TEST(Filter, GlobalLocalizationConvergesOnASmallMap) {
   EXPECT_EQ(converged, 3);
 }
 
-TEST(Filter, RecoversFromAKidnapping) {
+TEST(CeilingPfFilter, RecoversFromAKidnapping) {
   const SmallHall hall;
   ParticleFilterConfig config;
   config.max_range = 4.0;
@@ -254,7 +260,7 @@ TEST(Filter, RecoversFromAKidnapping) {
   EXPECT_LT(out.settled_at, 80.0) << "recovered within 60 s of the kidnapping";
 }
 
-TEST(Filter, WithoutRecoveryAKidnappingIsNotRecovered) {
+TEST(CeilingPfFilter, WithoutRecoveryAKidnappingIsNotRecovered) {
   const SmallHall hall;
   ParticleFilterConfig config;
   config.max_range = 4.0;

@@ -21,7 +21,7 @@ CeilingCamera hall_camera(CameraMounting mounting = {}) {
 }
 }  // namespace
 
-TEST(CeilingCamera, PrincipalPointLooksStraightUp) {
+TEST(CeilingPfCamera, PrincipalPointLooksStraightUp) {
   const CeilingCamera camera = hall_camera();
   const CeilingRay r = camera.ray(319.5, 239.5);
   EXPECT_NEAR(r.slant_range, 2.42 - 0.32, 1e-12);  // eq. (1): P = f h / f
@@ -29,7 +29,7 @@ TEST(CeilingCamera, PrincipalPointLooksStraightUp) {
   EXPECT_NEAR(r.horizontal_range(), 0.0, 1e-12);
 }
 
-TEST(CeilingCamera, EquationsOneToThreeByHand) {
+TEST(CeilingPfCamera, EquationsOneToThreeByHand) {
   const CeilingCamera camera = hall_camera();
   const double h = 2.1;
   // u = f, v = 0: 45 degrees elevation, to the robot's left (+y).
@@ -53,7 +53,7 @@ TEST(CeilingCamera, EquationsOneToThreeByHand) {
   EXPECT_NEAR(r.elevation, std::atan2(240.0, 5.0), 1e-12);
 }
 
-TEST(CeilingCamera, ProjectInvertsBackProjectionWithMounting) {
+TEST(CeilingPfCamera, ProjectInvertsBackProjectionWithMounting) {
   const CeilingCamera camera = hall_camera({0.2, -0.1, 0.3, 0.4});
   std::mt19937_64 rng(1);
   std::uniform_real_distribution<double> col(0, 640), row(0, 480);
@@ -66,7 +66,7 @@ TEST(CeilingCamera, ProjectInvertsBackProjectionWithMounting) {
   }
 }
 
-TEST(CeilingCamera, AgreesWithTheSimulatorsIndependentProjection) {
+TEST(CeilingPfCamera, AgreesWithTheSimulatorsIndependentProjection) {
   sim::ceiling::CeilingWorldConfig wc;
   wc.distractors = 0;
   const sim::ceiling::CeilingWorld world(wc);
@@ -85,13 +85,13 @@ TEST(CeilingCamera, AgreesWithTheSimulatorsIndependentProjection) {
   EXPECT_GT(checked, 0);
 }
 
-TEST(CeilingCamera, RejectsCeilingBelowLens) {
+TEST(CeilingPfCamera, RejectsCeilingBelowLens) {
   EXPECT_THROW(CeilingCamera(CameraIntrinsics{}, CameraMounting{0, 0, 0, 3.0}, 2.42), std::invalid_argument);
 }
 
-class NearestLandmarkIndexTest : public ::testing::TestWithParam<std::tuple<std::string, int>> {};
+class CeilingPfNearestLandmarkIndexTest : public ::testing::TestWithParam<std::tuple<std::string, int>> {};
 
-TEST_P(NearestLandmarkIndexTest, MatchesBruteForce) {
+TEST_P(CeilingPfNearestLandmarkIndexTest, MatchesBruteForce) {
   sim::ceiling::CeilingWorldConfig wc;
   wc.layout = std::get<0>(GetParam());
   wc.size = Eigen::Vector2d(30, 20);
@@ -118,16 +118,16 @@ TEST_P(NearestLandmarkIndexTest, MatchesBruteForce) {
   EXPECT_LT(index.mean_candidates(), 6.0 * k + 10);  // short lists, not the whole map
 }
 
-INSTANTIATE_TEST_SUITE_P(Layouts, NearestLandmarkIndexTest,
+INSTANTIATE_TEST_SUITE_P(Layouts, CeilingPfNearestLandmarkIndexTest,
                          ::testing::Combine(::testing::Values("grid", "jittered_grid", "random"),
                                             ::testing::Values(1, 3, 5)));
 
-TEST(NearestLandmarkIndex, BoundsCellsBeforeAllocating) {
+TEST(CeilingPfNearestLandmarkIndex, BoundsCellsBeforeAllocating) {
   const std::vector<Eigen::Vector2d> far{{0, 0}, {10000, 10000}};
   EXPECT_THROW(NearestLandmarkIndex(far, 3, 0.1, 1.0, 1'000'000), ConfigError);
 }
 
-TEST(LandmarkMap, ParsesAndRejectsMalformedEntries) {
+TEST(CeilingPfLandmarkMap, ParsesAndRejectsMalformedEntries) {
   const LandmarkMap map = parse_landmark_map(
       Params::parse("ceiling_height: 2.42\nlandmarks: [[1, 2], [3.5, -4]]\n", "m"), 10);
   ASSERT_EQ(map.landmarks.size(), 2u);
@@ -149,7 +149,7 @@ TEST(LandmarkMap, ParsesAndRejectsMalformedEntries) {
   EXPECT_NE(message("ceiling_height: 2.42\nlandmark: [[1, 2]]\n").find("landmark"), std::string::npos);
 }
 
-TEST(VelocityMotionModel, VelocityBetweenInvertsTheArc) {
+TEST(CeilingPfVelocityMotionModel, VelocityBetweenInvertsTheArc) {
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> v(-0.5, 0.5), w(-1.0, 1.0);
   for (int i = 0; i < 500; ++i) {
@@ -162,7 +162,7 @@ TEST(VelocityMotionModel, VelocityBetweenInvertsTheArc) {
   }
 }
 
-TEST(VelocityMotionModel, ArcMatchesSmallStepIntegration) {
+TEST(CeilingPfVelocityMotionModel, ArcMatchesSmallStepIntegration) {
   const Pose2 start(0.0, 0.0, 0.5);
   const double v = 0.4, w = 0.7, dt = 1.0;
   Pose2 p = start;
@@ -178,7 +178,7 @@ TEST(VelocityMotionModel, ArcMatchesSmallStepIntegration) {
   EXPECT_NEAR(arc.theta, normalize_angle(p.theta), 1e-9);
 }
 
-TEST(VelocityMotionModel, SampleSpreadFollowsAlphas) {
+TEST(CeilingPfVelocityMotionModel, SampleSpreadFollowsAlphas) {
   // Only alpha1 set: v is noisy with stddev alpha1 v^2, omega exact; so the travelled
   // distance has stddev alpha1 v^2 dt.
   const VelocityMotionModel model({0.3, 0.0, 0.0, 0.0, 0.0, 0.0});

@@ -46,6 +46,7 @@ struct ParticleFilterConfig {
   bool recovery = true;
   double alpha_slow = 0.001;
   double alpha_fast = 0.1;
+  double min_injection_probability = 0.5;  // inject only when 1 - w_fast / w_slow reaches this
   double proposal_position_stddev = 0.05;  // m, noise on poses drawn from detections
   double proposal_heading_stddev = 0.02;   // rad
   double pair_distance_tolerance = 0.15;   // m, detected vs mapped landmark pair distance
@@ -80,7 +81,7 @@ struct CorrectionReport {
   bool resampled = false;
   size_t injected = 0;
   double injection_probability = 0.0;
-  double mean_likelihood = 0.0;  // per detection, this frame
+  double mean_likelihood = 0.0;  // mean share of detections explained (fit in [0, 1]), this frame
   bool global_start = false;     // the set was drawn from this frame's detections
   std::vector<Association> associations;  // of the best particle, one per detection
 };
@@ -105,10 +106,11 @@ class CeilingParticleFilter {
   void predict(const VelocityCommand& u);
   CorrectionReport correct(const std::vector<Detection>& detections);
 
-  // Log-likelihood of one particle for a frame (eq. 7 with the outlier term, in logs), and the
-  // chosen landmark per detection when associations is non-null.
+  // Log-likelihood of one particle for a frame (eq. 7 with the outlier term, each detection's
+  // factor divided by its peak value), the chosen landmark per detection when associations is
+  // non-null, and the mean per-detection fit in [0, 1] when explained is non-null.
   double log_likelihood(const Pose2& pose, const std::vector<Detection>& detections,
-                        std::vector<Association>* associations = nullptr) const;
+                        std::vector<Association>* associations = nullptr, double* explained = nullptr) const;
 
   std::optional<FilterEstimate> estimate() const;
   const std::vector<Particle>& particles() const { return particles_; }
@@ -134,6 +136,7 @@ class CeilingParticleFilter {
   std::shared_ptr<const NearestLandmarkIndex> index_;
   VelocityMotionModel motion_;
   std::vector<Particle> particles_;
+  std::vector<bool> just_injected_;  // drawn from detections at the last resampling
   std::mt19937_64 rng_;
   double w_slow_ = 0.0, w_fast_ = 0.0;
   std::optional<Pose2> mode_;  // last mode, carried through predictions
