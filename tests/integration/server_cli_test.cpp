@@ -91,6 +91,15 @@ TEST(ServerCli, CheckConfigAcceptsAGoodConfigWithABootSession) {
   EXPECT_CONTAINS(output, "warning: plugin refused: ");  // the broken fixtures next to it
 }
 
+TEST(ServerCli, PluginDirOptionAddsADirectory) {
+  TempDir dir("locd_cli_plugin_dir");
+  const auto config = dir.write("locd.yaml", "domain_id: 3\n");
+  const auto [code, output] =
+      run_locd(dir, {"--check-config", config.string(), "--plugin-dir", LOCD_BROKEN_PLUGIN_DIR, "--domain", "9"});
+  EXPECT_EQ(code, 0) << output;
+  EXPECT_CONTAINS(output, "domain 9, plugins: broken_configure_throws, broken_factory_throws, fixture_odometry");
+}
+
 TEST(ServerCli, CheckConfigNamesEachError) {
   TempDir dir("locd_cli_check_bad");
   auto config = dir.write("bad_key.yaml", base_config(0) + "queue_depth: 0\n");
