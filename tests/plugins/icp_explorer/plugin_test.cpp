@@ -24,7 +24,8 @@ std::shared_ptr<locd::PluginLibrary> library() {
   return lib;
 }
 
-const char* kToyParams = R"(
+std::string toy_params(const std::string& extra_map_output = "") {
+  return R"(
 max_points: 50000
 rejection: {max_range: 15.0}
 exploration:
@@ -33,8 +34,9 @@ exploration:
   rays: 60
   candidate_stride: 3
   done_threshold: 5.0
-map_output: {publish_every_scans: 1, publish_voxel_size: 0.3}
-)";
+map_output: {publish_every_scans: 1, publish_voxel_size: 0.3)" + extra_map_output + "}\n";
+}
+const std::string kToyParams = toy_params();
 
 locd::Params params(const std::string& text) { return locd::Params(YAML::Load(text), "icp_explorer"); }
 
@@ -173,9 +175,11 @@ TEST(IcpExplorerPlugin, SavesTheMapOnlyIntoTheConfiguredDirectory) {
   const fs::path dir = fs::temp_directory_path() / ("icp_explorer_save_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   for (const std::string format : {"pcd", "ply"}) {
-    auto plugin = configured(std::string(kToyParams) + "\n" + "map_output: {save_directory: " + dir.string() +
-                             ", save_format: " + format + "}\n");
+    auto plugin = configured(toy_params(", save_directory: " + dir.string() + ", save_format: " + format));
     EXPECT_THROW(plugin->save_map(), locd::InputError) << "nothing scanned yet";
+    locd::PoseEstimate start;
+    start.pose = locd::Pose2(3.0, 1.2, 0.0).to_isometry();
+    plugin->set_pose(start);  // map frame = world frame
     plugin->update(toy_scan(locd::Pose2(3.0, 1.2, 0.0), 6));
     const fs::path file = plugin->save_map();
     EXPECT_EQ(file.parent_path(), fs::canonical(dir));
@@ -191,5 +195,5 @@ TEST(IcpExplorerPlugin, SavesTheMapOnlyIntoTheConfiguredDirectory) {
     const fs::path again = plugin->save_map();
     EXPECT_NE(again, file) << "a second save never overwrites the first";
   }
-  fs::remove_all(dir);
+  if (!::testing::Test::HasFailure()) fs::remove_all(dir);
 }
