@@ -116,8 +116,8 @@ void BM_SensorUpdateMasked(benchmark::State& state) {
   const cv::Mat_<float> patch = robot_patch(matcher, 200, 200);
   for (auto _ : state) {
     const auto match = matcher.match(patch);
-    const auto log_likelihood = matcher.log_likelihood(match, sensor, dsm.geometry.height, dsm.geometry.width);
-    auto report = grid.sensor_update(log_likelihood, sensor.min_likelihood);
+    const auto likelihood = matcher.likelihood(match, sensor, dsm.geometry.height, dsm.geometry.width);
+    auto report = grid.sensor_update_likelihood(likelihood);
     benchmark::DoNotOptimize(report);
   }
 }
@@ -147,8 +147,7 @@ void BM_MarkovUpdate(benchmark::State& state) {
   for (auto _ : state) {
     grid.motion_update({15.0, 3.3}, 1.5);
     const auto match = matcher.match(patch);
-    grid.sensor_update(matcher.log_likelihood(match, sensor, dsm.geometry.height, dsm.geometry.width),
-                       sensor.min_likelihood);
+    grid.sensor_update_likelihood(matcher.likelihood(match, sensor, dsm.geometry.height, dsm.geometry.width));
     auto summary = grid.summary();
     benchmark::DoNotOptimize(summary);
   }

@@ -47,7 +47,7 @@ GridLayer pooled_layer(const cv::Mat_<float>& cells, const GridGeometry& geometr
 EmoiMarkovConfig parse_config(const Params& params) {
   params.expect_only({"map", "radii_m", "sigma_m", "min_likelihood", "min_coverage", "full_coverage",
                       "odometry_error", "min_blur_m", "update_distance_m", "heading_source", "use_initial_pose",
-                      "base_height_m", "local_map_size_m", "local_map_memory_m", "min_point_range_m", "cache",
+                      "base_height_m", "local_map_size_m", "local_map_memory_m", "local_map_refresh_m", "min_point_range_m", "cache",
                       "belief_output_max_cells", "sensor_model", "match_resolution_m"});
   EmoiMarkovConfig config;
   config.map = params.required_text("map");
@@ -76,6 +76,8 @@ EmoiMarkovConfig parse_config(const Params& params) {
   config.local_map.size_m = params.number("local_map_size_m", default_size, Range::closed(4.0 * max_radius, 2000.0));
   config.local_map.memory_distance_m =
       params.number("local_map_memory_m", config.local_map.memory_distance_m, Range::positive());
+  config.local_map.refresh_distance_m =
+      params.number("local_map_refresh_m", config.local_map.refresh_distance_m, Range::positive());
   config.local_map.min_point_range_m =
       params.number("min_point_range_m", config.local_map.min_point_range_m, Range::closed(0.0, 100.0));
   config.cache = params.flag("cache", config.cache);
@@ -281,7 +283,7 @@ UpdateResult EmoiMarkovLocalizer::after_insert(int64_t stamp_ns) {
   const double ground = position.z() - config_.base_height_m;
   std::vector<double> weights;
   last_robot_emoi_.clear();
-  cv::Mat_<float> log_likelihood;
+  cv::Mat_<float> log_likelihood, likelihood;
   if (matcher_) {
     const double heading_offset = normalize_angle(map_heading() - yaw_of(last_odometry_->pose.linear()));
     const cv::Mat_<float> patch = local_map_->robot_patch(position.head<2>(), heading_offset, matcher_->cell_m(),
@@ -291,8 +293,8 @@ UpdateResult EmoiMarkovLocalizer::after_insert(int64_t stamp_ns) {
     for (size_t i = 0; i < match.robot_emoi.size(); ++i) {
       last_robot_emoi_.push_back({match.robot_emoi[i], match.coverage[i], match.observed[i]});
     }
-    log_likelihood = matcher_->log_likelihood(match, config_.sensor, grid_->geometry().height,
-                                              grid_->geometry().width, &weights);
+    likelihood = matcher_->likelihood(match, config_.sensor, grid_->geometry().height, grid_->geometry().width,
+                                      &weights);
   } else {
     last_robot_emoi_ = local_map_->emoi(position.head<2>(), ground, config_.radii_m, travelled_m_);
     EmoiObservation z;
@@ -305,7 +307,8 @@ UpdateResult EmoiMarkovLocalizer::after_insert(int64_t stamp_ns) {
   SensorUpdateReport sensor;
   sensor.evidence = 1.0;
   if (std::any_of(weights.begin(), weights.end(), [](double w) { return w > 0.0; })) {
-    sensor = grid_->sensor_update(log_likelihood, config_.sensor.min_likelihood);
+    sensor = matcher_ ? grid_->sensor_update_likelihood(likelihood)
+                      : grid_->sensor_update(log_likelihood, config_.sensor.min_likelihood);
   }
   summary_ = grid_->summary();
   ++sensor_updates_;
@@ -324,7 +327,7 @@ UpdateResult EmoiMarkovLocalizer::after_insert(int64_t stamp_ns) {
   values.emplace_back("mass_lost", motion.mass_lost);
   values.emplace_back("belief_resets", static_cast<double>(belief_resets_));
   values.emplace_back("max_probability", summary_.max_probability);
-  values.emplace_back("entropy", summary_.entropy);
+  values.emplace_back("effective_cells", summary_.effective_cells);
   values.emplace_back("sensor_updates", static_cast<double>(sensor_updates_));
   values.emplace_back("rejected_points", static_cast<double>(rejected_points_));
   return result;

@@ -79,9 +79,9 @@ bool LocalElevationMap::insert_point(const Eigen::Vector3d& point, double travel
   if (local.x() < 0 || local.y() < 0 || local.x() >= cells_ || local.y() >= cells_) return false;
   float& cell = elevation_(local.y(), local.x());
   float& seen = seen_at_(local.y(), local.x());
-  const bool forgotten = travelled_m - seen > config_.memory_distance_m;
+  const bool outdated = travelled_m - seen > std::min(config_.memory_distance_m, config_.refresh_distance_m);
   const float z = static_cast<float>(point.z());
-  if (!std::isfinite(cell) || forgotten || z > cell) cell = z;  // eq. 5: keep the highest return
+  if (!std::isfinite(cell) || outdated || z > cell) cell = z;  // eq. 5: keep the highest return
   seen = static_cast<float>(travelled_m);
   return true;
 }

@@ -78,6 +78,7 @@ MarkovGrid::MarkovGrid(GridGeometry geometry, cv::Mat_<uchar> support)
     throw ConfigError("Markov grid support does not match the DSM size");
   }
   support_cells_ = static_cast<size_t>(cv::countNonZero(support_));
+  full_support_ = support_cells_ == geometry_.size();
   if (support_cells_ == 0) throw ConfigError("the DSM has no cell the robot could occupy (no data)");
   set_uniform();
 }
@@ -104,7 +105,15 @@ void MarkovGrid::set_gaussian(const Eigen::Vector2d& mean, double stddev_m) {
 
 double MarkovGrid::normalise() {
   const double mass = cv::sum(belief_)[0];
-  if (mass > 0.0) belief_ *= 1.0 / mass;
+  if (!(mass > 0.0)) return mass;
+  const float scale = static_cast<float>(1.0 / mass);
+  for (int r = 0; r < belief_.rows; ++r) {
+    float* b = belief_.ptr<float>(r);
+    for (int c = 0; c < belief_.cols; ++c) {
+      const float v = b[c] * scale;
+      b[c] = v < kFlushBelow ? 0.0f : v;
+    }
+  }
   return mass;
 }
 
@@ -112,28 +121,35 @@ MotionUpdateReport MarkovGrid::motion_update(const Eigen::Vector2d& displacement
   MotionUpdateReport report;
   report.mass_before = cv::sum(belief_)[0];
   const double res = geometry_.resolution;
-  if (displacement_m.squaredNorm() > 0.0) {
-    // bel-(x) = bel(x - u): bilinear shift, every source cell's weights sum to one.
-    const cv::Matx23d shift(1, 0, displacement_m.x() / res, 0, 1, displacement_m.y() / res);
-    cv::Mat_<float> moved;
-    cv::warpAffine(belief_, moved, shift, belief_.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0.0);
-    belief_ = moved;
-  }
   const double sigma_cells = blur_stddev_m / res;
+  const Eigen::Vector2d shift_cells = displacement_m / res;
   if (sigma_cells > 3.0) {
+    // Coarse-to-fine in spirit: a blur wider than 3 cells hides any sub-cell part of the shift
+    // (at most half a cell), so the shift is rounded to whole cells and done as a copy.
+    const int dx = static_cast<int>(std::lround(shift_cells.x())), dy = static_cast<int>(std::lround(shift_cells.y()));
+    cv::Mat_<float> moved(belief_.size(), 0.0f);
+    const cv::Rect all(0, 0, belief_.cols, belief_.rows);
+    const cv::Rect target = all & cv::Rect(dx, dy, belief_.cols, belief_.rows);
+    if (target.area() > 0) belief_(target - cv::Point(dx, dy)).copyTo(moved(target));
+    belief_ = moved;
     for (int width : box_widths_for_gaussian(sigma_cells, 3)) {
-      if (width > 1) {
-        cv::blur(belief_, belief_, cv::Size(width, width), cv::Point(-1, -1), cv::BORDER_CONSTANT);
-      }
+      if (width > 1) cv::blur(belief_, belief_, cv::Size(width, width), cv::Point(-1, -1), cv::BORDER_CONSTANT);
     }
-  } else if (sigma_cells > 0.3) {
-    const int half = static_cast<int>(std::ceil(3.0 * sigma_cells));
-    cv::GaussianBlur(belief_, belief_, cv::Size(2 * half + 1, 2 * half + 1), sigma_cells, sigma_cells,
-                     cv::BORDER_CONSTANT);
+  } else {
+    if (shift_cells.squaredNorm() > 0.0) {
+      // bel-(x) = bel(x - u): bilinear shift, every source cell's weights sum to one.
+      const cv::Matx23d shift(1, 0, shift_cells.x(), 0, 1, shift_cells.y());
+      cv::Mat_<float> moved;
+      cv::warpAffine(belief_, moved, shift, belief_.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0.0);
+      belief_ = moved;
+    }
+    if (sigma_cells > 0.3) {
+      const int half = static_cast<int>(std::ceil(3.0 * sigma_cells));
+      cv::GaussianBlur(belief_, belief_, cv::Size(2 * half + 1, 2 * half + 1), sigma_cells, sigma_cells,
+                       cv::BORDER_CONSTANT);
+    }
   }
-  cv::Mat_<float> masked(belief_.size(), 0.0f);
-  belief_.copyTo(masked, support_);
-  belief_ = masked;
+  if (!full_support_) belief_.setTo(0.0f, support_ == 0);
   const double mass = normalise();
   report.mass_lost = std::max(0.0, report.mass_before - mass);
   if (!(mass > 1e-30)) {
@@ -144,21 +160,36 @@ MotionUpdateReport MarkovGrid::motion_update(const Eigen::Vector2d& displacement
 }
 
 SensorUpdateReport MarkovGrid::sensor_update(const cv::Mat_<float>& log_likelihood, double min_likelihood) {
-  SensorUpdateReport report;
   if (log_likelihood.size() != belief_.size()) throw InputError("likelihood grid does not match the belief grid");
   const float floor_exponent = static_cast<float>(std::log(min_likelihood));
   cv::Mat_<float> p = log_likelihood.clone();
   cv::patchNaNs(p, floor_exponent);  // no data there: the floor
   cv::max(p, floor_exponent, p);
   cv::exp(p, p);
-  cv::multiply(belief_, p, belief_);
-  report.evidence = normalise();
+  return sensor_update_likelihood(p);
+}
+
+SensorUpdateReport MarkovGrid::sensor_update_likelihood(const cv::Mat_<float>& likelihood) {
+  SensorUpdateReport report;
+  if (likelihood.size() != belief_.size()) throw InputError("likelihood grid does not match the belief grid");
+  double evidence = 0.0;
+  for (int r = 0; r < belief_.rows; ++r) {
+    float* b = belief_.ptr<float>(r);
+    const float* p = likelihood.ptr<float>(r);
+    float row_sum = 0.0f;
+    for (int c = 0; c < belief_.cols; ++c) {
+      b[c] *= p[c];
+      row_sum += b[c];
+    }
+    evidence += row_sum;
+  }
+  report.evidence = evidence;
   report.applied = true;
-  if (!(report.evidence > 0.0)) {
+  if (!(evidence > 0.0)) {
     set_uniform();
     return report;
   }
-  cv::threshold(belief_, belief_, kFlushBelow, 0.0, cv::THRESH_TOZERO);
+  normalise();
   return report;
 }
 
@@ -169,7 +200,7 @@ BeliefSummary MarkovGrid::summary() const {
   cv::minMaxLoc(belief_, nullptr, &max_value, nullptr, &max_location);
   s.mode = geometry_.center_of(max_location.y, max_location.x);
   s.max_probability = max_value;
-  double mass = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0, entropy = 0;
+  double mass = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0, squares = 0;
   const double res = geometry_.resolution;
   for (int r = 0; r < geometry_.height; ++r) {
     const float* b = belief_.ptr<float>(r);
@@ -184,7 +215,7 @@ BeliefSummary MarkovGrid::summary() const {
       sxx += p * dx * dx;
       syy += p * dy * dy;
       sxy += p * dx * dy;
-      entropy -= p * std::log(p);
+      squares += p * p;
     }
   }
   if (mass > 0) {
@@ -192,7 +223,7 @@ BeliefSummary MarkovGrid::summary() const {
     s.covariance << sxx / mass, sxy / mass, sxy / mass, syy / mass;
   }
   s.covariance += Eigen::Matrix2d::Identity() * (res * res / 12.0);  // the cell's own extent
-  s.entropy = entropy;
+  s.effective_cells = squares > 0 ? mass * mass / squares : 0.0;
   return s;
 }
 

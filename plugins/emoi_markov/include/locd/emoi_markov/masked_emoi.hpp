@@ -8,7 +8,7 @@
 //
 // which is three DFT correlations per radius on a coarser matching grid (DSM max-pooled, like
 // the max-height local map of eq. 5; the centre e(x) min-pooled, the ground the robot stands on).
-// The resulting log-likelihood (eq. 8 multiplied over radii) is interpolated to the belief grid.
+// The resulting likelihood (eq. 8 multiplied over radii) is interpolated to the belief grid.
 #pragma once
 
 #include <vector>
@@ -40,9 +40,12 @@ class MaskedEmoiMatcher {
   // robot's ground elevation, NaN = not observed. Size (2 patch_radius + 1)^2.
   Match match(const cv::Mat_<float>& patch) const;
 
-  // log p(z|x) on the DSM (belief) grid; NaN-free (cells without data get the floor).
-  cv::Mat_<float> log_likelihood(const Match& match, const SensorModelConfig& sensor, int fine_rows, int fine_cols,
-                                 std::vector<double>* weights = nullptr) const;
+  // log p(z|x) on the matching grid, floored (cells without data get the floor).
+  cv::Mat_<float> coarse_log_likelihood(const Match& match, const SensorModelConfig& sensor,
+                                        std::vector<double>* weights = nullptr) const;
+  // p(z|x) on the DSM (belief) grid: exp on the matching grid, then bilinear interpolation.
+  cv::Mat_<float> likelihood(const Match& match, const SensorModelConfig& sensor, int fine_rows, int fine_cols,
+                             std::vector<double>* weights = nullptr) const;
 
  private:
   std::vector<double> radii_m_;
