@@ -15,7 +15,8 @@ double truth_sample_period(const Params& sensors) {
 }  // namespace
 
 Simulation::Simulation(const Scenario& scenario, uint64_t seed, double duration_s, int64_t stamp_origin_ns)
-    : scenario_(scenario),
+    : initial_pose_offset_(scenario.localizer.initial_pose_offset),
+      initial_stddev_(scenario.localizer.initial_stddev),
       duration_(duration_s),
       origin_ns_(stamp_origin_ns),
       world_(std::make_shared<SegmentWorld>(SegmentWorld::from_feature_map(scenario.map))),
@@ -54,14 +55,14 @@ std::optional<SimulatedMeasurement> Simulation::next() {
 
 PoseEstimate Simulation::initial_pose() const {
   const Pose2 start = truth_.at(0.0).pose;
-  const Pose2& offset = scenario_.localizer.initial_pose_offset;
+  const Pose2& offset = initial_pose_offset_;
   const Pose2 given(start.x + offset.x, start.y + offset.y, normalize_angle(start.theta + offset.theta));
   PoseEstimate p;
   p.header.stamp_ns = stamp_of(0.0);
   p.header.frame_id = "map";
   p.pose = given.to_isometry();
   p.covariance = Matrix6d::Zero();
-  const Eigen::Vector3d& s = scenario_.localizer.initial_stddev;
+  const Eigen::Vector3d& s = initial_stddev_;
   p.covariance(0, 0) = s.x() * s.x();
   p.covariance(1, 1) = s.y() * s.y();
   p.covariance(2, 2) = 1e-6;

@@ -40,7 +40,8 @@ class Simulation {
   PoseEstimate initial_pose() const;
 
  private:
-  const Scenario& scenario_;
+  Pose2 initial_pose_offset_;
+  Eigen::Vector3d initial_stddev_;
   double duration_;
   int64_t origin_ns_;
   std::shared_ptr<const SegmentWorld> world_;
