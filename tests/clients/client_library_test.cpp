@@ -432,6 +432,9 @@ TEST(ClientLibrary, ServerInfoAndSessionStatesAreConvertedForLateJoiners) {
   dds::Writer<locd_msg_ServerInfo> info_writer(server, topics::kServerInfo, dds::QosProfile::kState);
   dds::Writer<locd_msg_SessionStatus> status_writer(server, topics::kSessionStatus, dds::QosProfile::kState);
 
+  EXPECT_THROW(Client({kDomainServerInfo, std::string(65, 'r'), 8}), std::invalid_argument);
+  EXPECT_THROW(Client({kDomainServerInfo, "robot", 0}), std::invalid_argument);
+  EXPECT_THROW(Client({233, "robot", 8}), std::invalid_argument);
   {
     Client early({kDomainServerInfo, "", 8});
     EXPECT_FALSE(early.wait_for_server(200ms));

@@ -108,9 +108,24 @@ struct Subscription {
 
 }  // namespace
 
+// Refuses options DDS could not carry, before any entity is created.
+const ClientOptions& checked(const ClientOptions& o) {
+  if (o.robot_id.size() > 64) {
+    throw std::invalid_argument("robot_id '" + o.robot_id.substr(0, 32) + "...' is " + std::to_string(o.robot_id.size()) +
+                                " characters; allowed: at most 64");
+  }
+  if (o.sensor_depth < 1 || o.sensor_depth > 10000) {
+    throw std::invalid_argument("sensor_depth = " + std::to_string(o.sensor_depth) + " is out of range; allowed: 1..10000");
+  }
+  if (o.domain_id > 232) {
+    throw std::invalid_argument("domain_id = " + std::to_string(o.domain_id) + " is out of range; allowed: 0..232");
+  }
+  return o;
+}
+
 struct Client::Impl {
   explicit Impl(const ClientOptions& o)
-      : options(o),
+      : options(checked(o)),
         participant(static_cast<dds_domainid_t>(o.domain_id)),
         odometry(participant, topics::kOdometry, dds::QosProfile::kSensor, o.sensor_depth),
         imu(participant, topics::kImu, dds::QosProfile::kSensor, o.sensor_depth),
