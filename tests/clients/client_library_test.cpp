@@ -78,7 +78,7 @@ template <typename T>
 T take_one(dds::Reader<T>& reader) {
   std::vector<T> got;
   EXPECT_TRUE(eventually([&] {
-    got = reader.take();
+    reader.take([&](const T& sample) { got.push_back(sample); });  // fixed-size T: a copy owns all
     return !got.empty();
   })) << "nothing received on " << reader.topic();
   if (got.empty()) throw std::runtime_error("nothing received on " + reader.topic());

@@ -143,11 +143,17 @@ class Reader {
     return *this;
   }
 
-  // Takes whatever is available now (for readers made without a callback).
-  std::vector<T> take() {
-    std::vector<T> out;
-    take_each(state_->entity.handle(), [&](const T& s) { out.push_back(s); });
-    return out;
+  // Takes whatever is available now (for readers made without a callback) and hands each
+  // sample to `visit`. A sample (and every sequence in it) is valid only during that call: it is
+  // Cyclone's loaned memory, returned right after. Copy what you keep. Returns the count.
+  template <typename Visit>
+  size_t take(Visit&& visit) {
+    size_t count = 0;
+    take_each(state_->entity.handle(), [&](const T& s) {
+      visit(s);
+      ++count;
+    });
+    return count;
   }
   uint32_t matched() const {
     dds_subscription_matched_status_t s{};
