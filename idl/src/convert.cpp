@@ -219,6 +219,16 @@ PoseEstimate from_wire(const locd_msg_InitialPose& m) {
   return p;
 }
 
+ExplorationGoal from_wire(const locd_msg_ExplorationGoal& m) {
+  ExplorationGoal g;
+  g.header = from_wire(m.header);
+  g.pose = from_wire(m.pose);
+  if (!std::isfinite(m.score)) throw InputError("exploration goal: score is NaN or infinite");
+  g.score = m.score;
+  g.done = m.done;
+  return g;
+}
+
 // ------------------------------------------------------------------------------- writers
 
 void write(const Writer<locd_msg_Odometry>& w, const std::string& robot_id, const Odometry& m) {
@@ -385,6 +395,18 @@ void write(const Writer<locd_msg_Diagnostics>& w, const std::string& robot_id, c
   borrow(s.values, values.data(), values.size());
   borrow(s.particles, particles.data(), particles.size());
   borrow(s.associations, associations.data(), associations.size());
+  w.write(s);
+}
+
+void write(const Writer<locd_msg_ExplorationGoal>& w, const std::string& robot_id, const ExplorationGoal& g,
+           const std::string& plugin) {
+  auto s = zeroed<locd_msg_ExplorationGoal>();
+  copy_string(s.robot_id, robot_id);
+  to_wire(g.header, s.header);
+  to_wire(g.pose, s.pose);
+  s.score = g.score;
+  s.done = g.done;
+  copy_string(s.plugin, plugin);
   w.write(s);
 }
 

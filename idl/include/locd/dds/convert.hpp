@@ -20,6 +20,7 @@ Image from_wire(const locd_msg_Image& m, const Limits& limits);
 LandmarkDetections from_wire(const locd_msg_LandmarkDetections& m, const Limits& limits);
 PoseEstimate from_wire(const locd_msg_PoseEstimate& m);
 PoseEstimate from_wire(const locd_msg_InitialPose& m);
+ExplorationGoal from_wire(const locd_msg_ExplorationGoal& m);
 
 Header from_wire(const locd_msg_Header& h);
 Eigen::Isometry3d from_wire(const locd_msg_Pose& p);  // throws InputError on NaN or a zero quaternion
@@ -43,5 +44,7 @@ void write(const Writer<locd_msg_LandmarkMap>& w, const std::string& robot_id, c
            const std::vector<MapFeature>& features);
 void write(const Writer<locd_msg_Diagnostics>& w, const std::string& robot_id, const Header& h,
            const std::string& plugin, const Diagnostics& d);
+void write(const Writer<locd_msg_ExplorationGoal>& w, const std::string& robot_id, const ExplorationGoal& g,
+           const std::string& plugin = "");
 
 }  // namespace locd::dds

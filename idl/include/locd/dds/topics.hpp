@@ -18,12 +18,14 @@ inline constexpr const char* kDiagnostics = "locd/diagnostics";    // reliable, 
 inline constexpr const char* kGrid = "locd/grid";                  // transient-local
 inline constexpr const char* kMapCloud = "locd/map_cloud";         // transient-local
 inline constexpr const char* kLandmarkMap = "locd/landmark_map";   // transient-local
+inline constexpr const char* kExplorationGoal = "locd/exploration_goal";  // transient-local, keep-last 1
 
 // Control and state.
 inline constexpr const char* kSessionRequest = "locd/session_request";  // transient-local
 inline constexpr const char* kSessionStatus = "locd/session_status";    // transient-local
 inline constexpr const char* kInitialPose = "locd/initial_pose";        // transient-local
 inline constexpr const char* kServerInfo = "locd/server_info";          // transient-local
+inline constexpr const char* kMapSaveRequest = "locd/map_save_request";  // reliable, volatile
 
 // Simulation ground truth, locsim -> evaluators (PoseEstimate).
 inline constexpr const char* kGroundTruth = "locd/ground_truth";
