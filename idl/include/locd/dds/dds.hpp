@@ -80,6 +80,8 @@ LOCD_DDS_DESCRIPTOR(SessionRequest)
 LOCD_DDS_DESCRIPTOR(SessionStatus)
 LOCD_DDS_DESCRIPTOR(InitialPose)
 LOCD_DDS_DESCRIPTOR(ServerInfo)
+LOCD_DDS_DESCRIPTOR(ExplorationGoal)
+LOCD_DDS_DESCRIPTOR(MapSaveRequest)
 #undef LOCD_DDS_DESCRIPTOR
 
 dds_entity_t create_topic(const Participant& p, const dds_topic_descriptor_t& d, const std::string& name);
