@@ -1,10 +1,14 @@
-// The feature_ekf plugin: I/O only. Params -> FeatureEkfConfig, sdk measurements in,
-// UpdateResult out; the algorithm is FeatureEkfFilter (feature_ekf_core).
+// The feature_ekf plugin: I/O only. `model` selects the algorithm (feature_ekf_core):
+//   laser_features (default)  FeatureEkfFilter: odometry + 2D scans against a wall feature map;
+//   geodetic_landmarks        LandmarkEkfFilter, state [lat, lon, vN, vE]: imu + landmark detections
+//   enu_landmarks             LandmarkEkfFilter, state [east, north, vE, vN]     against a database
+// Params -> config, sdk measurements in, UpdateResult out.
 #include <cmath>
 #include <memory>
 #include <string>
 
 #include "locd/feature_ekf/feature_ekf_filter.hpp"
+#include "locd/feature_ekf/landmark_ekf_filter.hpp"
 #include "locd/sdk/plugin.hpp"
 
 namespace locd::feature_ekf {
@@ -14,7 +18,7 @@ namespace {
 Eigen::Vector3d vector3(const std::vector<double>& v) { return {v[0], v[1], v[2]}; }
 
 FeatureEkfConfig config_from_params(const Params& params) {
-  params.expect_only({"map", "initial_pose", "initial_stddev", "gate_probability", "max_feature_range",
+  params.expect_only({"model", "map", "initial_pose", "initial_stddev", "gate_probability", "max_feature_range",
                       "line_overlap_margin", "use_lines", "use_corners", "use_edges", "max_odometry_gap",
                       "motion", "extraction"});
   FeatureEkfConfig c;
@@ -63,6 +67,47 @@ FeatureEkfConfig config_from_params(const Params& params) {
   return c;
 }
 
+const char* const kLaserModel = "laser_features";
+
+LandmarkEkfConfig landmark_config_from_params(const Params& params, LandmarkModelKind model) {
+  params.expect_only({"model", "landmarks", "association", "gate_threshold", "false_detection_probability",
+                      "jcbb_max_nodes", "centre", "altitude", "velocity_noise_per_step", "position_noise_per_step",
+                      "detection_stddev", "initial_position", "initial_velocity", "initial_stddev", "max_imu_gap",
+                      "frame_id"});
+  LandmarkEkfConfig c;
+  c.model = model;
+  const Range positive = Range::positive(), non_negative = Range::non_negative();
+  LandmarkAssociationConfig& a = c.association;
+  a.strategy = association_strategy_from_name(
+      params.text("association", association_strategy_name(a.strategy), {"known_id", "nearest_neighbor", "jcbb", "pda"}));
+  a.gate_threshold = params.number("gate_threshold", a.gate_threshold, Range::open(0.0, 1000.0));
+  a.false_detection_probability =
+      params.number("false_detection_probability", a.false_detection_probability, Range::open(0.0, 1.0));
+  a.jcbb_max_nodes = static_cast<size_t>(params.integer("jcbb_max_nodes", static_cast<long>(a.jcbb_max_nodes), 1, 10'000'000));
+  if (params.has("centre")) {
+    const std::vector<double> centre = params.numbers("centre", {}, 2);
+    if (std::fabs(centre[0]) > 85.0 || std::fabs(centre[1]) > 180.0) {
+      params.fail("centre", "[" + std::to_string(centre[0]) + ", " + std::to_string(centre[1]) +
+                                "] is out of range; allowed: latitude [-85, 85], longitude [-180, 180] degrees");
+    }
+    c.centre_deg = Eigen::Vector2d(centre[0], centre[1]);
+  }
+  c.altitude = params.number("altitude", c.altitude, Range::closed(-1000.0, 10000.0));
+  c.velocity_noise_per_step = params.number("velocity_noise_per_step", c.velocity_noise_per_step, non_negative);
+  c.position_noise_per_step = params.number("position_noise_per_step", c.position_noise_per_step, non_negative);
+  c.detection_stddev = params.number("detection_stddev", c.detection_stddev, non_negative);
+  const std::vector<double> p0 = params.numbers("initial_position", {0.0, 0.0}, 2);
+  const std::vector<double> v0 = params.numbers("initial_velocity", {0.0, 0.0}, 2);
+  const std::vector<double> s0 =
+      params.numbers("initial_stddev", {c.initial_position_stddev, c.initial_velocity_stddev}, 2, positive);
+  c.initial_position = {p0[0], p0[1]};
+  c.initial_velocity = {v0[0], v0[1]};
+  c.initial_position_stddev = s0[0];
+  c.initial_velocity_stddev = s0[1];
+  c.max_imu_gap = params.number("max_imu_gap", c.max_imu_gap, positive);
+  return c;
+}
+
 bool finite(const Eigen::Isometry3d& T) { return T.matrix().allFinite(); }
 
 Matrix6d embed_covariance(const Eigen::Matrix3d& P) {
@@ -78,13 +123,29 @@ Matrix6d embed_covariance(const Eigen::Matrix3d& P) {
 class FeatureEkfLocalizer : public Localizer {
  public:
   void configure(const PluginContext& context, const Params& params) override {
+    const std::string model =
+        params.text("model", kLaserModel, {kLaserModel, "geodetic_landmarks", "enu_landmarks"});
+    filter_.reset();
+    landmarks_.reset();
+    last_scan_stamp_ns_.reset();
+    last_odometry_stamp_ns_.reset();
+    last_detections_stamp_ns_.reset();
+    limits_ = context.limits;
+    if (model != kLaserModel) {
+      const LandmarkModelKind kind =
+          model == "geodetic_landmarks" ? LandmarkModelKind::kGeodetic : LandmarkModelKind::kEnu;
+      LandmarkEkfConfig config = landmark_config_from_params(params, kind);
+      const std::string database_name = params.required_text("landmarks");
+      frame_id_ = params.text("frame_id", "map");
+      LandmarkDatabase database =
+          load_landmark_database(context.maps.resolve(database_name).string(), context.limits.max_map_cells);
+      landmarks_ = std::make_unique<LandmarkEkfFilter>(std::move(config), std::move(database));
+      return;
+    }
     const std::string map_name = params.required_text("map");
     FeatureEkfConfig config = config_from_params(params);
     FeatureMap2D map = load_feature_map(context.maps.resolve(map_name).string(), context.limits.max_map_cells);
-    limits_ = context.limits;
     filter_ = std::make_unique<FeatureEkfFilter>(std::move(config), std::move(map));
-    last_scan_stamp_ns_.reset();
-    last_odometry_stamp_ns_.reset();
   }
 
   void set_pose(const PoseEstimate& estimate) override {
@@ -101,19 +162,47 @@ class FeatureEkfLocalizer : public Localizer {
     if (P.diagonal().minCoeff() < 0.0 || Eigen::LLT<Eigen::Matrix3d>(P + 1e-12 * Eigen::Matrix3d::Identity()).info() != Eigen::Success) {
       throw InputError("feature_ekf: initial covariance (x, y, yaw entries) is not positive semi-definite");
     }
+    if (landmarks_) {
+      // Position (x = east, y = north) and velocity from the estimate; the velocity keeps the
+      // configured uncertainty (a pose carries none for it).
+      if (!estimate.linear_velocity.allFinite()) throw InputError("feature_ekf: initial velocity is not finite");
+      Eigen::Matrix4d covariance = Eigen::Matrix4d::Zero();
+      covariance.topLeftCorner<2, 2>() = P.topLeftCorner<2, 2>() + 1e-6 * Eigen::Matrix2d::Identity();
+      const double v = landmarks_->config().initial_velocity_stddev;
+      covariance.bottomRightCorner<2, 2>() = v * v * Eigen::Matrix2d::Identity();
+      landmarks_->set_state_enu(pose.vector().head<2>(), estimate.linear_velocity.head<2>(), covariance);
+      return;
+    }
     filter_->set_pose(pose.vector(), P);
   }
 
   UpdateResult update(const Measurement& measurement) override {
     require_configured();
+    if (landmarks_) {
+      if (const auto* imu = std::get_if<Imu>(&measurement)) return update_imu(*imu);
+      if (const auto* detections = std::get_if<LandmarkDetections>(&measurement)) return update_detections(*detections);
+      throw InputError(std::string("feature_ekf: measurement kind '") + kind_name(kind_of(measurement)) +
+                       "' is not consumed by model " + landmark_model_name(landmarks_->model().kind()) +
+                       "; allowed: imu, detections");
+    }
     if (const auto* odometry = std::get_if<Odometry>(&measurement)) return update_odometry(*odometry);
     if (const auto* scan = std::get_if<LaserScan>(&measurement)) return update_scan(*scan);
     throw InputError(std::string("feature_ekf: measurement kind '") + kind_name(kind_of(measurement)) +
-                     "' is not consumed; allowed: odometry, scan");
+                     "' is not consumed by model laser_features; allowed: odometry, scan");
   }
 
   UpdateResult initial_outputs() const override {
     UpdateResult result;
+    if (landmarks_) {
+      std::vector<MapFeature> features;
+      const LandmarkDatabase& db = landmarks_->database();
+      for (size_t i = 0; i < db.size(); ++i) {
+        const Eigen::Vector3d p(landmarks_->landmark_enu(i).x(), landmarks_->landmark_enu(i).y(), 0.0);
+        features.push_back({db[i].id, db[i].class_label, p, p});
+      }
+      result.landmark_map = std::move(features);
+      return result;
+    }
     if (!filter_) return result;
     std::vector<MapFeature> features;
     const FeatureMap2D& map = filter_->map();
@@ -128,7 +217,74 @@ class FeatureEkfLocalizer : public Localizer {
 
  private:
   void require_configured() const {
-    if (!filter_) throw InputError("feature_ekf: not configured");
+    if (!filter_ && !landmarks_) throw InputError("feature_ekf: not configured");
+  }
+
+  // IMU only predicts: it returns no estimate (the pose is published once per detection frame).
+  UpdateResult update_imu(const Imu& imu) {
+    landmarks_->apply_imu(imu);
+    return {};
+  }
+
+  UpdateResult update_detections(const LandmarkDetections& detections) {
+    if (detections.detections.size() > limits_.max_detections) {
+      throw InputError("feature_ekf: " + std::to_string(detections.detections.size()) +
+                       " detections; limit max_detections is " + std::to_string(limits_.max_detections));
+    }
+    if (last_detections_stamp_ns_ && detections.header.stamp_ns < *last_detections_stamp_ns_) {
+      throw InputError("feature_ekf: landmark detections stamp " + std::to_string(detections.header.stamp_ns) +
+                       " ns goes backwards (previous " + std::to_string(*last_detections_stamp_ns_) + " ns)");
+    }
+    const LandmarkUpdateReport report = landmarks_->update(detections);
+    last_detections_stamp_ns_ = detections.header.stamp_ns;
+
+    UpdateResult result;
+    PoseEstimate estimate;
+    estimate.header.stamp_ns = detections.header.stamp_ns;
+    estimate.header.frame_id = frame_id_;
+    const Eigen::Vector2d position = landmarks_->position_enu();
+    const Eigen::Vector2d velocity = landmarks_->velocity_enu();
+    estimate.pose = Eigen::Isometry3d::Identity();
+    estimate.pose.linear() = landmarks_->attitude().toRotationMatrix();
+    estimate.pose.translation() = Eigen::Vector3d(position.x(), position.y(), 0.0);
+    estimate.linear_velocity = Eigen::Vector3d(velocity.x(), velocity.y(), 0.0);
+    estimate.covariance = Matrix6d::Zero();
+    estimate.covariance.topLeftCorner<2, 2>() = landmarks_->covariance_enu().topLeftCorner<2, 2>();
+    result.estimate = estimate;
+
+    const Eigen::Vector2d geodetic = landmarks_->model().area().to_geodetic(position);
+    const Eigen::Matrix4d P = landmarks_->covariance_enu();
+    Diagnostics& d = result.diagnostics;
+    size_t hypotheses = 0, in_gate = 0;
+    for (const DetectionReport& r : report.detections) {
+      hypotheses += r.hypotheses;
+      in_gate += r.in_gate;
+    }
+    d.values = {{"latitude_deg", geodetic.x() * 180.0 / M_PI},
+                {"longitude_deg", geodetic.y() * 180.0 / M_PI},
+                {"velocity_east", velocity.x()},
+                {"velocity_north", velocity.y()},
+                {"velocity_stddev", std::sqrt(0.5 * (P(2, 2) + P(3, 3)))},
+                {"detections", static_cast<double>(report.detections.size())},
+                {"detections_applied", static_cast<double>(report.applied)},
+                {"hypotheses", static_cast<double>(hypotheses)},
+                {"hypotheses_in_gate", static_cast<double>(in_gate)},
+                {"gate_threshold", landmarks_->association().gate_threshold()}};
+    const LandmarkDatabase& db = landmarks_->database();
+    for (size_t i = 0; i < report.detections.size(); ++i) {
+      const DetectionReport& r = report.detections[i];
+      AssociationRecord record;
+      record.measurement = static_cast<uint32_t>(i);
+      if (r.landmark >= 0) record.feature_id = db[r.landmark].id;
+      record.candidates = static_cast<uint32_t>(r.in_gate);
+      record.mahalanobis2 = std::isfinite(r.mahalanobis2) ? r.mahalanobis2 : -1.0;
+      d.associations.push_back(record);
+      d.values.push_back({"detection_" + std::to_string(i) + "_hypotheses", static_cast<double>(r.hypotheses)});
+      if (landmarks_->config().association.strategy == AssociationStrategy::kPda) {
+        d.values.push_back({"detection_" + std::to_string(i) + "_weight", r.weight});
+      }
+    }
+    return result;
   }
 
   static void check_stamp(int64_t stamp_ns, const std::optional<int64_t>& last, const char* what) {
@@ -207,7 +363,10 @@ class FeatureEkfLocalizer : public Localizer {
   }
 
   Limits limits_;
-  std::unique_ptr<FeatureEkfFilter> filter_;
+  std::unique_ptr<FeatureEkfFilter> filter_;      // model laser_features
+  std::unique_ptr<LandmarkEkfFilter> landmarks_;  // model geodetic_landmarks or enu_landmarks
+  std::string frame_id_ = "map";
+  std::optional<int64_t> last_detections_stamp_ns_;
   // Stamps must not go backwards within a stream. Across streams they may interleave: a scan
   // stamped before the latest odometry is fused at the current pose.
   std::optional<int64_t> last_scan_stamp_ns_;
@@ -216,6 +375,8 @@ class FeatureEkfLocalizer : public Localizer {
 
 }  // namespace locd::feature_ekf
 
-LOCD_REGISTER_PLUGIN(locd::feature_ekf::FeatureEkfLocalizer, "feature_ekf", "1.0.0",
-                     "EKF on 2D laser lines, corners and edges against a feature map (Lim et al.)",
-                     locd::kinds(locd::MeasurementKind::kOdometry, locd::MeasurementKind::kLaserScan))
+LOCD_REGISTER_PLUGIN(locd::feature_ekf::FeatureEkfLocalizer, "feature_ekf", "1.1.0",
+                     "EKF: 2D laser features against a feature map (Lim et al.), or imu + non-unique "
+                     "landmark detections against a landmark database with data association (Kim et al.)",
+                     locd::kinds(locd::MeasurementKind::kOdometry, locd::MeasurementKind::kLaserScan,
+                                 locd::MeasurementKind::kImu, locd::MeasurementKind::kLandmarkDetections))

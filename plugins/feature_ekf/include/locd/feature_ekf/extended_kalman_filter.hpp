@@ -6,6 +6,8 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
+#include <utility>
+#include <vector>
 
 namespace locd::feature_ekf {
 
@@ -62,6 +64,36 @@ class ExtendedKalmanFilter {
     state_ += W * innovation;
     const Covariance I_WH = Covariance::Identity() - W * H;
     covariance_ = I_WH * covariance_ * I_WH.transpose() + W * R * W.transpose();
+    symmetrize();
+    return true;
+  }
+
+  // Probabilistic data association update (Bar-Shalom, Daum, Huang 2009, eq. 37-41): innovations
+  // r_i with weights beta_i, and beta_0 = false_weight for "none of them is right".
+  // x += W sum(beta_i r_i); P = beta_0 P + (1 - beta_0) P_c + W (sum beta_i r_i r_i^T - r r^T) W^T,
+  // with P_c the Joseph-form update. Returns false (and changes nothing) when S is not positive
+  // definite.
+  template <int MeasurementSize>
+  bool update_mixture(const std::vector<std::pair<Eigen::Matrix<double, MeasurementSize, 1>, double>>& weighted,
+                      double false_weight, const Eigen::Matrix<double, MeasurementSize, StateSize>& H,
+                      const Eigen::Matrix<double, MeasurementSize, MeasurementSize>& R) {
+    using MeasurementMatrix = Eigen::Matrix<double, MeasurementSize, MeasurementSize>;
+    using MeasurementVector = Eigen::Matrix<double, MeasurementSize, 1>;
+    const MeasurementMatrix S = innovation_covariance(H, R);
+    const Eigen::LLT<MeasurementMatrix> llt(S);
+    if (llt.info() != Eigen::Success) return false;
+    const Eigen::Matrix<double, StateSize, MeasurementSize> W = llt.solve(H * covariance_).transpose();
+    MeasurementVector combined = MeasurementVector::Zero();
+    MeasurementMatrix spread = MeasurementMatrix::Zero();
+    for (const auto& [r, beta] : weighted) {
+      combined += beta * r;
+      spread += beta * r * r.transpose();
+    }
+    spread -= combined * combined.transpose();
+    const Covariance I_WH = Covariance::Identity() - W * H;
+    const Covariance corrected = I_WH * covariance_ * I_WH.transpose() + W * R * W.transpose();
+    state_ += W * combined;
+    covariance_ = false_weight * covariance_ + (1.0 - false_weight) * corrected + W * spread * W.transpose();
     symmetrize();
     return true;
   }
