@@ -60,6 +60,7 @@ DdsBridge::DdsBridge(int domain_id, std::string server_id, const Limits& limits,
       grid_(participant_, topics::kGrid, dds::QosProfile::kState),
       map_cloud_(participant_, topics::kMapCloud, dds::QosProfile::kState),
       landmark_map_(participant_, topics::kLandmarkMap, dds::QosProfile::kState),
+      exploration_goal_(participant_, topics::kExplorationGoal, dds::QosProfile::kState),
       status_(participant_, topics::kSessionStatus, dds::QosProfile::kState),
       server_info_(participant_, topics::kServerInfo, dds::QosProfile::kState) {}
 
@@ -148,6 +149,7 @@ void DdsBridge::publish_outputs(const std::string& robot_id, const std::string& 
   if (result.grid) dds::write(grid_, robot_id, header, *result.grid);
   if (result.map_cloud) dds::write(map_cloud_, robot_id, header, *result.map_cloud);
   if (result.landmark_map) dds::write(landmark_map_, robot_id, header, *result.landmark_map);
+  if (result.exploration_goal) dds::write(exploration_goal_, robot_id, *result.exploration_goal, plugin);
 }
 
 void DdsBridge::publish_server_info(const ServerInfoReport& info) {

@@ -1,5 +1,6 @@
 // The server's DDS side: readers on every sensor topic, session_request and initial_pose; writers
-// for pose, diagnostics, grid, map_cloud, landmark_map, session_status and server_info.
+// for pose, diagnostics, grid, map_cloud, landmark_map, exploration_goal, session_status and
+// server_info.
 // Listener callbacks convert with locd::dds::from_wire (sizes bounded by the limits before any
 // allocation) and hand over to the Server; they never block.
 #pragma once
@@ -41,6 +42,7 @@ class DdsBridge : public OutputSink {
   dds::Writer<locd_msg_GridMap> grid_;
   dds::Writer<locd_msg_PointCloudMap> map_cloud_;
   dds::Writer<locd_msg_LandmarkMap> landmark_map_;
+  dds::Writer<locd_msg_ExplorationGoal> exploration_goal_;
   dds::Writer<locd_msg_SessionStatus> status_;
   dds::Writer<locd_msg_ServerInfo> server_info_;
   std::unique_ptr<Readers> readers_;
