@@ -139,6 +139,12 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   score_received();
 
+  // The server's counters for this robot: what it refused and why.
+  for (const auto& st : client.statuses()) {
+    if (st.robot_id != scenario.robot.id) continue;
+    result.rejected = st.rejected;
+    result.last_rejection = st.last_error;
+  }
   result.summary = evaluator.summary();
   result.estimates = evaluator.estimates();
   for (const auto& s : simulation.truth().samples()) result.truth_path.push_back(s.pose);

@@ -20,7 +20,9 @@ const char* kUsage =
     "  locsim run SCENARIO.yaml [--json] [--plot FILE.png] [--plugin-dir DIR] [--seed N] [--duration S]\n"
     "      offline: the scenario straight through the plugin, no DDS\n"
     "  locsim live SCENARIO.yaml [--domain N] [--rate X] [--duration S] [--seed N] [--json] [--plot FILE.png]\n"
-    "      real time against a running locd (DDS through CYCLONEDDS_URI)\n"
+    "              [--server-timeout S]\n"
+    "      real time against a running locd (DDS through CYCLONEDDS_URI); --rate 2 runs twice as fast;\n"
+    "      waits --server-timeout seconds (default 10) for the server and each answer\n"
     "  locsim --help\n"
     "Plugin directory for run: --plugin-dir, else $LOCD_PLUGIN_DIR, else <locsim's dir>/../plugins.\n";
 
@@ -92,6 +94,8 @@ int main(int argc, char** argv) {
         plugin_directories.push_back(value());
       } else if (a == "--domain" && mode == "live") {
         live.domain_id = static_cast<uint32_t>(parse_unsigned(a, value(), 232));
+      } else if (a == "--server-timeout" && mode == "live") {
+        live.server_timeout_s = parse_number(a, value(), 0.1, 3600.0);
       } else if (a == "--rate" && mode == "live") {
         live.rate = parse_number(a, value(), 0.01, 100.0);
       } else if (a == "--help" || a == "-h") {

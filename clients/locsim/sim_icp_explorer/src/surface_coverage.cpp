@@ -21,8 +21,8 @@ int64_t SurfaceCoverage::key(const Eigen::Vector3f& p) const {
 
 SurfaceCoverage::SurfaceCoverage(const IndoorWorld& world, const Scanner3DConfig& reference_scanner,
                                  double voxel_size, double grid_step, double robot_radius,
-                                 const Eigen::Vector2d& start, int scan_every)
-    : voxel_size_(voxel_size) {
+                                 const Eigen::Vector2d& start, int scan_every, double z_low, double z_high)
+    : voxel_size_(voxel_size), z_low_(z_low), z_high_(z_high) {
   Scanner3DConfig config = reference_scanner;
   config.range_stddev = 0.0;
   config.intensity_stddev = 0.0;
@@ -66,7 +66,8 @@ SurfaceCoverage::SurfaceCoverage(const IndoorWorld& world, const Scanner3DConfig
   for (const auto& xy : scanned) {
     const SimulatedScan s = scanner.scan(world, Pose2(xy.x(), xy.y(), 0.0).to_isometry(), 0.0, 0, rng);
     for (size_t i = 0; i < s.points_in_world.size(); ++i)
-      if (static_cast<size_t>(s.hit_object[i]) < first_person) reference_.insert(key(s.points_in_world[i]));
+      if (static_cast<size_t>(s.hit_object[i]) < first_person && counted(s.points_in_world[i]))
+        reference_.insert(key(s.points_in_world[i]));
   }
 }
 

@@ -1,7 +1,9 @@
-// How much of a world's observable static surface the scans so far have seen. The reference is
+// How much of a world's observable static structure the scans so far have seen. The reference is
 // what dense virtual scans from every free grid position would see (voxels of `voxel_size`
-// holding a static hit); a scan covers the reference voxels its static hits fall in. Moving
-// people count for neither.
+// holding a static hit between z_low and z_high: walls, doors' jambs and lintels, furniture;
+// floor and ceiling slabs are left out, since a scanner reaching only 45 degrees down sees the
+// floor in a ring under itself); a scan covers the reference voxels its static hits fall in.
+// Moving people count for neither.
 #pragma once
 
 #include <Eigen/Core>
@@ -20,7 +22,8 @@ class SurfaceCoverage {
   // footprint (robot_radius) is free and that are reachable by 4-connected steps from `start`;
   // every scan_every-th of them in x and y is scanned.
   SurfaceCoverage(const IndoorWorld& world, const Scanner3DConfig& reference_scanner, double voxel_size,
-                  double grid_step, double robot_radius, const Eigen::Vector2d& start, int scan_every = 1);
+                  double grid_step, double robot_radius, const Eigen::Vector2d& start, int scan_every = 1,
+                  double z_low = 0.05, double z_high = 2.5);
 
   void add(const SimulatedScan& scan, const IndoorWorld& world);
   double ratio() const;  // covered reference voxels / reference voxels
@@ -31,7 +34,9 @@ class SurfaceCoverage {
 
  private:
   int64_t key(const Eigen::Vector3f& p) const;
+  bool counted(const Eigen::Vector3f& p) const { return p.z() >= z_low_ && p.z() <= z_high_; }
   double voxel_size_;
+  double z_low_, z_high_;
   std::unordered_set<int64_t> reference_;
   std::unordered_set<int64_t> covered_;
   std::vector<Eigen::Vector2d> positions_;
