@@ -139,6 +139,20 @@ void Server::on_session_request(SessionRequestMessage request) {
   uint64_t generation = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    if (!sessions_.count(request.robot_id) && sessions_.size() >= config_.max_sessions) {
+      SessionStatusReport status;
+      status.robot_id = request.robot_id;
+      status.stamp_ns = wall_clock_ns();
+      status.state = SessionState::kNoSession;
+      status.request_id = request.request_id;
+      status.request_ok = false;
+      status.message = "server '" + config_.server_id + "' already runs max_sessions = " +
+                       std::to_string(config_.max_sessions) +
+                       " sessions; stop one or raise max_sessions in the server config";
+      logger_.log(LogLevel::kWarning, request.robot_id, status.message);
+      pool_.post([this, status] { sink_.publish_status(status); });
+      return;
+    }
     session = create_session_locked(request.robot_id);
     generation = session->begin_request(request.request_id);
   }

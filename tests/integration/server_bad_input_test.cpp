@@ -50,7 +50,7 @@ bool feature_ekf_built() { return fs::exists(fs::path(locd::test::plugin_dir()) 
 // A locd child process on its own domain, and a robot-side participant talking to it.
 class LocdOverDds {
  public:
-  explicit LocdOverDds(int domain) : domain_(domain) {
+  explicit LocdOverDds(int domain, const std::string& extra_config = "") : domain_(domain) {
     dir_ = fs::temp_directory_path() / ("locd_bad_input_" + std::to_string(::getpid()) + "_" + std::to_string(domain));
     fs::create_directories(dir_);
     std::ofstream(dir_ / "locd.yaml") << "server_id: bad-input-test-" << domain << "\n"
@@ -60,7 +60,8 @@ class LocdOverDds {
                                       << "map_directories: [" << locd::test::source_dir() << "/config/maps]\n"
                                       << "status_period_s: 0.2\n"
                                       << "queue_depth: 1000\n"
-                                      << "limits: {max_scan_beams: " << kMaxScanBeams << "}\n";
+                                      << "limits: {max_scan_beams: " << kMaxScanBeams << "}\n"
+                                      << extra_config;
     locd_ = std::make_unique<locd::test::ChildProcess>(
         locd::test::binary_dir() + "/bin/locd", std::vector<std::string>{"--config", (dir_ / "locd.yaml").string()},
         (dir_ / "locd.log").string());
@@ -361,3 +362,16 @@ TEST(ServerBadInput, AfterAllBadInputAGoodSessionStillRuns) {
 }
 
 }  // namespace
+
+TEST(ServerBadInput, RequestsBeyondMaxSessionsAreRefusedAndTheOthersRun) {
+  LocdOverDds locd(62, "max_sessions: 2\n");
+  EXPECT_TRUE(locd.request("robot_a", 1, "", kFixtureConfig).request_ok);
+  EXPECT_TRUE(locd.request("robot_b", 1, "", kFixtureConfig).request_ok);
+  const auto refused = locd.request("robot_c", 1, "", kFixtureConfig);
+  EXPECT_FALSE(refused.request_ok);
+  EXPECT_CONTAINS(refused.message, "max_sessions = 2");
+  // A running robot may still switch its plugin, and a freed slot serves the next robot.
+  EXPECT_TRUE(locd.request("robot_a", 2, "", kFixtureConfig).request_ok);
+  EXPECT_TRUE(locd.request("robot_b", 2, "", "", locd_msg_SESSION_STOP).request_id == 2);
+  EXPECT_TRUE(locd.request("robot_c", 2, "", kFixtureConfig).request_ok);
+}

@@ -29,6 +29,7 @@ struct ServerConfig {
   std::vector<std::filesystem::path> map_directories;
   int workers = 2;
   int queue_depth = 64;
+  size_t max_sessions = 256;  // robots served at once; requests beyond are refused
   double status_period_s = 1.0;
   Limits limits;
   LogLevel log_level = LogLevel::kInfo;
