@@ -42,18 +42,22 @@ std::vector<float> NextBestViewPlanner::movable(const LayeredHexahedralMap& map,
   for (int r = 0; r < rows; ++r)
     for (int c = 0; c < columns; ++c)
       column[static_cast<size_t>(r) * columns + c] = map.column_state(c, r, settings_.robot_height);
-  // Inflate occupied columns by the robot radius.
-  std::vector<char> blocked(cells, 0);
+  // Occupied columns inflated by the robot radius block the way; a scan position needs its whole
+  // footprint known to be empty (not next to an unseen wall).
+  std::vector<char> blocked(cells, 0), unclear(cells, 0);
   const int reach = static_cast<int>(std::ceil(settings_.robot_radius / cell));
   for (int r = 0; r < rows; ++r)
     for (int c = 0; c < columns; ++c) {
-      if (column[static_cast<size_t>(r) * columns + c] != CellState::kOccupied) continue;
+      const CellState s = column[static_cast<size_t>(r) * columns + c];
+      if (s == CellState::kEmpty) continue;
       for (int dr = -reach; dr <= reach; ++dr)
         for (int dc = -reach; dc <= reach; ++dc) {
           const int rr = r + dr, cc = c + dc;
           if (rr < 0 || cc < 0 || rr >= rows || cc >= columns) continue;
-          if (std::hypot(dr, dc) * cell <= settings_.robot_radius + 0.5 * cell)
-            blocked[static_cast<size_t>(rr) * columns + cc] = 1;
+          if (std::hypot(dr, dc) * cell > settings_.robot_radius + 0.5 * cell) continue;
+          const size_t j = static_cast<size_t>(rr) * columns + cc;
+          unclear[j] = 1;
+          if (s == CellState::kOccupied) blocked[j] = 1;
         }
     }
   int c0 = 0, r0 = 0;
@@ -82,7 +86,9 @@ std::vector<float> NextBestViewPlanner::movable(const LayeredHexahedralMap& map,
           const int rr = r + dr, cc = c + dc;
           if (rr < 0 || cc < 0 || rr >= rows || cc >= columns) continue;
           const size_t j = static_cast<size_t>(rr) * columns + cc;
-          if (blocked[j]) continue;
+          // Inside the inflation the robot may only move on to leave it (it may stand there
+          // after the map around it filled in).
+          if (blocked[j] && !blocked[i]) continue;
           const CellState s = column[j];
           if (s == CellState::kOccupied || (!through_unknown && s != CellState::kEmpty)) continue;
           const float nd = d + static_cast<float>(cell * ((dr && dc) ? M_SQRT2 : 1.0));
@@ -97,7 +103,7 @@ std::vector<float> NextBestViewPlanner::movable(const LayeredHexahedralMap& map,
   const std::vector<float> over_empty = flood(false);
   const std::vector<float> over_unknown = flood(true);
   for (size_t i = 0; i < cells; ++i) {
-    if (column[i] != CellState::kEmpty || blocked[i]) continue;
+    if (column[i] != CellState::kEmpty || unclear[i]) continue;
     if (std::isfinite(over_empty[i])) {
       m[i] = 1.0f;
       length[i] = over_empty[i];

@@ -11,6 +11,10 @@
 #include <filesystem>
 #include <random>
 
+#include <fstream>
+#include <sstream>
+
+#include "locd/sdk/plugin_config.hpp"
 #include "locd/sdk/plugin_loader.hpp"
 #include "test_env.hpp"
 #include "toy_world.hpp"
@@ -80,6 +84,16 @@ TEST(IcpExplorerPlugin, DescriptorNamesItselfAndItsInputs) {
   const auto& d = library()->descriptor();
   EXPECT_STREQ(d.name, "icp_explorer");
   EXPECT_EQ(d.consumes, locd::kinds(locd::MeasurementKind::kOdometry, locd::MeasurementKind::kPointCloud));
+}
+
+TEST(IcpExplorerPlugin, ShippedConfigIsValid) {
+  std::ifstream in(locd::test::source_dir() + "/config/plugins/icp_explorer.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  const locd::PluginConfig config = locd::split_plugin_config(text.str(), "icp_explorer.yaml");
+  EXPECT_EQ(config.plugin, "icp_explorer");
+  auto plugin = library()->create();
+  EXPECT_NO_THROW(plugin->configure(locd::PluginContext{}, config.params));
 }
 
 TEST(IcpExplorerPlugin, ConfigErrorsNameKeyValueAndAllowed) {

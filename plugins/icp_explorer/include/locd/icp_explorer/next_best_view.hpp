@@ -1,8 +1,9 @@
 // Next scan position from the layered hexahedral map (paper section 3):
 //   movable m(x, y): flood fill from the robot over columns that are not occupied (inflated by
 //     the robot radius); a column reached over empty columns only is movable (1), one reached
-//     only through unknown columns is possibly movable (possibly_movable_weight); only empty
-//     columns are candidates, the rest are immovable (0);
+//     only through unknown columns is possibly movable (possibly_movable_weight); only columns
+//     whose whole footprint (robot radius) is known empty are candidates, the rest are
+//     immovable (0);
 //   exploratory e(x, y): rays cast from the candidate in every layer until an occupied cube,
 //     summing over the unknown cubes they cross (1 - P) * detection_from(distance);
 //   resumable rs(x, y): the same sum over the unknown cubes of conflicted columns only;
@@ -41,7 +42,7 @@ struct ExplorationSettings {
   double overlap_distance = 1.0;     // m
   double direction_penalty = 0.5;
   double memory_radius = 6.0;        // m
-  double done_threshold = 20.0;
+  double done_threshold = 2.0;
 };
 
 struct ExplorationDecision {
