@@ -1,6 +1,7 @@
 #include "locd/feature_ekf/landmark_association.hpp"
 
 #include <Eigen/Cholesky>
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <functional>

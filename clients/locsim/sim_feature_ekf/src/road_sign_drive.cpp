@@ -26,12 +26,13 @@ DriveConfig DriveConfig::from_params(const Params& drive, const Params& imu, con
   c.turn_radius = drive.number("turn_radius", c.turn_radius, Range::closed(1.0, 50.0));
   c.max_acceleration = drive.number("max_acceleration", c.max_acceleration, positive);
   imu.expect_only({"rate_hz", "accelerometer_stddev", "heading_error_rms_deg", "tilt_error_rms_deg",
-                   "attitude_error_time_s"});
+                   "attitude_error_time_s", "gravity_leak"});
   c.imu_rate = imu.number("rate_hz", c.imu_rate, Range::closed(1.0, 10000.0));
   c.accelerometer_stddev = imu.number("accelerometer_stddev", c.accelerometer_stddev, non_negative);
   c.heading_error_rms_deg = imu.number("heading_error_rms_deg", c.heading_error_rms_deg, non_negative);
   c.tilt_error_rms_deg = imu.number("tilt_error_rms_deg", c.tilt_error_rms_deg, non_negative);
   c.attitude_error_time = imu.number("attitude_error_time_s", c.attitude_error_time, positive);
+  c.gravity_leak = imu.flag("gravity_leak", c.gravity_leak);
   detector.expect_only({"rate_hz", "min_range", "max_range", "fov_deg", "max_facing_error_deg",
                         "detection_probability", "position_stddev_at_max_range", "false_detection_rate",
                         "oracle_ids"});
@@ -185,7 +186,7 @@ Imu RoadSignDrive::make_imu() {
   imu.header.stamp_ns = static_cast<int64_t>(std::llround(truth_.time * 1e9)) + 1'000'000'000;
   imu.header.frame_id = "base_link";
   imu.orientation = Eigen::Quaterniond(R_reported);
-  imu.linear_acceleration = sensed - R_reported.transpose() * up;
+  imu.linear_acceleration = sensed - (config_.gravity_leak ? R_reported : R_true).transpose() * up;
   for (int i = 0; i < 3; ++i) imu.linear_acceleration(i) += config_.accelerometer_stddev * normal_(rng_);
   imu.orientation_stddev = config_.heading_error_rms_deg * kDegree;
   imu.acceleration_stddev = config_.accelerometer_stddev;

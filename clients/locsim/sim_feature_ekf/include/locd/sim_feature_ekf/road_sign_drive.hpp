@@ -1,7 +1,7 @@
 // A drive through a RoadSignWorld with the paper's sensors (Table 1): a random route along the
-// roads (no U-turns, rounded corners), an IMU at 400 Hz (body acceleration with gravity removed
-// by the AHRS attitude, so attitude errors leak gravity, plus white noise 0.0152 m/s^2; AHRS
-// attitude with Gauss-Markov errors of 0.6 deg RMS heading and 0.3 deg roll/pitch) and a sign
+// roads (no U-turns, rounded corners), an IMU at 400 Hz (body acceleration, gravity removed,
+// plus white noise 0.0152 m/s^2; AHRS attitude with Gauss-Markov errors of 0.6 deg RMS heading
+// and 0.3 deg roll/pitch, optionally leaking gravity) and a sign
 // detector (relative position in base_link with noise growing to sigma_max at the maximum range,
 // missed and false detections). The vehicle moves on the WGS84 ellipsoid consistently with
 // eq. 6-7 (the specific force includes the Coriolis and transport-rate terms), so the only
@@ -31,6 +31,10 @@ struct DriveConfig {
   double heading_error_rms_deg = 0.6;
   double tilt_error_rms_deg = 0.3;       // roll and pitch
   double attitude_error_time = 60.0;     // s, correlation time of the attitude errors
+  // false: the IMU removes gravity with the true tilt (the sdk's "gravity removed"), the AHRS
+  // errors only rotate the motion's acceleration; true: gravity is removed with the AHRS's
+  // attitude, so tilt errors leak g * error (0.05 m/s^2 at 0.3 deg) into the horizontal.
+  bool gravity_leak = false;
   double detection_rate = 1.0;      // Hz, detector frames
   double min_range = 5.0;           // m
   double max_range = 40.0;          // m
