@@ -48,7 +48,7 @@ EmoiMarkovConfig parse_config(const Params& params) {
   params.expect_only({"map", "radii_m", "sigma_m", "min_likelihood", "min_coverage", "full_coverage",
                       "odometry_error", "min_blur_m", "update_distance_m", "heading_source", "use_initial_pose",
                       "base_height_m", "local_map_size_m", "local_map_memory_m", "local_map_refresh_m", "min_point_range_m", "cache",
-                      "belief_output_max_cells", "sensor_model", "match_resolution_m"});
+                      "belief_output_max_cells", "sensor_model", "match_resolution_m", "ground_offset_stddev_m"});
   EmoiMarkovConfig config;
   config.map = params.required_text("map");
   config.radii_m = params.numbers("radii_m", config.radii_m, 0, Range::open(0.0, 1000.0));
@@ -63,6 +63,8 @@ EmoiMarkovConfig parse_config(const Params& params) {
     params.fail("full_coverage", "= " + format_number(config.sensor.full_coverage) + " is below min_coverage = " +
                                      format_number(config.sensor.min_coverage) + "; allowed: [min_coverage, 1]");
   }
+  config.sensor.ground_offset_stddev_m =
+      params.number("ground_offset_stddev_m", config.sensor.ground_offset_stddev_m, Range::closed(0.0, 100.0));
   config.sensor_model = params.text("sensor_model", config.sensor_model, {"masked", "full_disk"});
   config.match_resolution_m = params.number("match_resolution_m", config.match_resolution_m, Range::open(0.0, 100.0));
   config.odometry_error = params.number("odometry_error", config.odometry_error, Range::closed(0.0, 1.0));

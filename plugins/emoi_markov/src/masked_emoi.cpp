@@ -90,7 +90,7 @@ MaskedEmoiMatcher::Match MaskedEmoiMatcher::match(const cv::Mat_<float>& patch) 
     // Kernels flipped in both axes: the DFT convolves, the match correlates.
     cv::Mat moment_kernel = cv::Mat::zeros(padded_rows_, padded_cols_, CV_64F);
     cv::Mat mask_kernel = cv::Mat::zeros(padded_rows_, padded_cols_, CV_64F);
-    double robot_sum = 0.0;
+    double robot_sum = 0.0, moment_sum = 0.0;
     size_t observed = 0, disk = 0;
     for (int dr = -radius; dr <= radius; ++dr) {
       for (int dc = -radius; dc <= radius; ++dc) {
@@ -102,11 +102,13 @@ MaskedEmoiMatcher::Match MaskedEmoiMatcher::match(const cv::Mat_<float>& patch) 
         ++observed;
         const double r2_m = r2 * cell * cell;
         robot_sum += r2_m * v;
+        moment_sum += r2_m;
         moment_kernel.at<double>(patch_radius_ - dr, patch_radius_ - dc) = r2_m;
         mask_kernel.at<double>(patch_radius_ - dr, patch_radius_ - dc) = 1.0;
       }
     }
     out.observed.push_back(observed);
+    out.offset_gain.push_back(observed ? -moment_sum / static_cast<double>(observed) / (radius_m * radius_m) : 0.0);
     out.coverage.push_back(disk ? static_cast<double>(observed) / static_cast<double>(disk) : 0.0);
     out.robot_emoi.push_back(observed ? robot_sum / static_cast<double>(observed) / (radius_m * radius_m)
                                       : std::numeric_limits<double>::quiet_NaN());
@@ -160,17 +162,49 @@ cv::Mat_<float> MaskedEmoiMatcher::coarse_log_likelihood(const Match& match, con
   const float floor_exponent = static_cast<float>(std::log(sensor.min_likelihood));
   const float inverse_variance = static_cast<float>(1.0 / (sensor.sigma_m * sensor.sigma_m));
   cv::Mat_<float> coarse(rows, cols, 0.0f);
-  for (size_t i = 0; i < weights.size(); ++i) {
-    if (weights[i] <= 0.0) continue;
-    const float robot = static_cast<float>(match.robot_emoi[i]);
-    const float scale = static_cast<float>(weights[i]) * inverse_variance;
-    for (int r = 0; r < rows; ++r) {
-      const float* layer = match.dsm_emoi[i].ptr<float>(r);
-      float* e = coarse.ptr<float>(r);
-      for (int c = 0; c < cols; ++c) {
-        const float d = layer[c] - robot;
-        e[c] -= scale * d * d;  // eq. 8, multiplied over radii
+  const double offset_precision =
+      sensor.ground_offset_stddev_m > 0 ? 1.0 / (sensor.ground_offset_stddev_m * sensor.ground_offset_stddev_m) : 0.0;
+  if (offset_precision == 0.0) {
+    for (size_t i = 0; i < weights.size(); ++i) {
+      if (weights[i] <= 0.0) continue;
+      const float robot = static_cast<float>(match.robot_emoi[i]);
+      const float scale = static_cast<float>(weights[i]) * inverse_variance;
+      for (int r = 0; r < rows; ++r) {
+        const float* layer = match.dsm_emoi[i].ptr<float>(r);
+        float* e = coarse.ptr<float>(r);
+        for (int c = 0; c < cols; ++c) {
+          const float d = layer[c] - robot;
+          e[c] -= scale * d * d;  // eq. 8, multiplied over radii
+        }
       }
+    }
+  } else {
+    // residual d_R = robot_R - DSM_R(x) = g_R * delta + noise: integrate delta ~ N(0, s^2) out.
+    // exponent = -sum w d^2 / sigma^2 + (sum w g d / sigma^2)^2 / (1 / s^2 + sum w g^2 / sigma^2)
+    cv::Mat_<float> cross(rows, cols, 0.0f);
+    double information = offset_precision;
+    for (size_t i = 0; i < weights.size(); ++i) {
+      if (weights[i] <= 0.0) continue;
+      const float robot = static_cast<float>(match.robot_emoi[i]);
+      const float scale = static_cast<float>(weights[i]) * inverse_variance;
+      const float gain = static_cast<float>(match.offset_gain[i]);
+      information += weights[i] * inverse_variance * match.offset_gain[i] * match.offset_gain[i];
+      for (int r = 0; r < rows; ++r) {
+        const float* layer = match.dsm_emoi[i].ptr<float>(r);
+        float* e = coarse.ptr<float>(r);
+        float* x = cross.ptr<float>(r);
+        for (int c = 0; c < cols; ++c) {
+          const float d = robot - layer[c];
+          e[c] -= scale * d * d;
+          x[c] += scale * gain * d;
+        }
+      }
+    }
+    const float inverse_information = static_cast<float>(1.0 / information);
+    for (int r = 0; r < rows; ++r) {
+      float* e = coarse.ptr<float>(r);
+      const float* x = cross.ptr<float>(r);
+      for (int c = 0; c < cols; ++c) e[c] += x[c] * x[c] * inverse_information;
     }
   }
   cv::patchNaNs(coarse, floor_exponent);

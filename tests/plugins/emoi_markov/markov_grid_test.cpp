@@ -230,3 +230,41 @@ TEST(MaskedEmoi, FullPatchReproducesTheFullDiskLayer) {
 }
 
 }  // namespace
+
+namespace {
+
+// A robot whose ground height is 0.3 m off: every radius shifts by 0.3 * mean(r^2)/R^2; with the
+// offset marginalised the true cell keeps its likelihood and stays among the best.
+TEST(MaskedEmoi, GroundOffsetIsMarginalised) {
+  const ElevationMap map = hills(120, 0.5, 3);
+  const std::vector<double> radii{3.0, 6.0, 10.0};
+  MaskedEmoiMatcher matcher(map, radii, 0.5);
+  const int half = matcher.patch_radius();
+  const int row0 = 60, col0 = 60;
+  cv::Mat_<float> patch(2 * half + 1, 2 * half + 1, std::numeric_limits<float>::quiet_NaN());
+  for (int i = -half; i <= half; ++i) {
+    for (int j = -half; j <= half; ++j) {
+      if (i < -2) continue;
+      patch(i + half, j + half) = map.elevation(row0 + i, col0 + j) - (map.elevation(row0, col0) + 0.3f);
+    }
+  }
+  const auto match = matcher.match(patch);
+  for (size_t k = 0; k < radii.size(); ++k) {
+    EXPECT_NEAR(match.robot_emoi[k] - match.dsm_emoi[k](row0, col0), 0.3 * match.offset_gain[k], 1e-5);
+    EXPECT_LT(match.offset_gain[k], -0.3);
+  }
+  SensorModelConfig plain;
+  plain.min_coverage = 0.05;
+  plain.full_coverage = 0.5;
+  SensorModelConfig marginalised = plain;
+  marginalised.ground_offset_stddev_m = 1.0;
+  const auto log_plain = matcher.coarse_log_likelihood(match, plain);
+  const auto log_marginalised = matcher.coarse_log_likelihood(match, marginalised);
+  EXPECT_LT(log_plain(row0, col0), -5.0);
+  EXPECT_GT(log_marginalised(row0, col0), -0.5);
+  double best = 0.0;
+  cv::minMaxLoc(log_marginalised, nullptr, &best);
+  EXPECT_GT(log_marginalised(row0, col0), best - 0.5);  // among the best cells (one dof fewer to match)
+}
+
+}  // namespace

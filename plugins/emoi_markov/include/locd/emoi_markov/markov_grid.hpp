@@ -25,6 +25,7 @@ struct SensorModelConfig {
   double min_likelihood = 1e-6;     // floor of p(z | x): one bad match never zeroes a cell
   double min_coverage = 0.3;        // a radius with a thinner local map is left out
   double full_coverage = 0.9;       // from here on a radius gets its full weight
+  double ground_offset_stddev_m = 0.0;  // masked model: prior on the robot's ground height error
 };
 
 // The robot's measurement: its EMOI per radius and how much of each disk it has observed.

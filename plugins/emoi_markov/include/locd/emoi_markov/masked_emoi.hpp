@@ -9,6 +9,9 @@
 // which is three DFT correlations per radius on a coarser matching grid (DSM max-pooled, like
 // the max-height local map of eq. 5; the centre e(x) min-pooled, the ground the robot stands on).
 // The resulting likelihood (eq. 8 multiplied over radii) is interpolated to the belief grid.
+// An error d of the robot's ground height (odometry z, slope under a distorted local map) shifts
+// every radius by d * mean(r^2)/R^2 over M; with ground_offset_stddev_m > 0 that offset is
+// marginalised in closed form (Gaussian prior), so only the shape across radii must match.
 #pragma once
 
 #include <vector>
@@ -34,6 +37,7 @@ class MaskedEmoiMatcher {
     std::vector<double> robot_emoi;           // per radius, over the observed cells
     std::vector<double> coverage;             // per radius, observed fraction of the disk
     std::vector<size_t> observed;             // per radius, |M|
+    std::vector<double> offset_gain;          // per radius, d EMOI / d(centre elevation) = -mean r^2 / R^2 over M
     std::vector<cv::Mat_<float>> dsm_emoi;    // per radius, EMOI_M(x) on the matching grid
   };
   // patch: map-aligned, centred on the robot, matching-grid cells, value = elevation minus the
