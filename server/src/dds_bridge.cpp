@@ -51,6 +51,7 @@ struct DdsBridge::Readers {
   dds::Reader<locd_msg_LandmarkDetections> detections;
   dds::Reader<locd_msg_SessionRequest> session_request;
   dds::Reader<locd_msg_InitialPose> initial_pose;
+  dds::Reader<locd_msg_MapSaveRequest> map_save_request;
 };
 
 DdsBridge::DdsBridge(int domain_id, std::string server_id, const Limits& limits, Logger& logger)
@@ -114,6 +115,11 @@ void DdsBridge::connect(Server& server) {
         } catch (const std::exception& e) {
           server.on_bad_input(robot_id, topics::kInitialPose, e.what());
         }
+      });
+  readers->map_save_request = dds::Reader<locd_msg_MapSaveRequest>(
+      participant_, topics::kMapSaveRequest, dds::QosProfile::kSensor,
+      [&server](const locd_msg_MapSaveRequest& sample) {
+        server.on_map_save_request(dds::to_string(sample.robot_id), sample.request_id);
       });
   readers_ = std::move(readers);
 }

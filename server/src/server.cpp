@@ -223,6 +223,14 @@ void Server::on_initial_pose(const std::string& robot_id, const PoseEstimate& po
   report_no_session(robot_id, topics::kInitialPose, "");
 }
 
+void Server::on_map_save_request(const std::string& robot_id, uint64_t request_id) {
+  if (auto session = find(robot_id)) {
+    session->save_map(request_id);
+    return;
+  }
+  report_no_session(robot_id, topics::kMapSaveRequest, "");
+}
+
 void Server::report_no_session(const std::string& robot_id, const std::string& topic, const std::string& detail) {
   SessionStatusReport status;
   {

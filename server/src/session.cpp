@@ -217,6 +217,38 @@ bool Session::abandon_if_idle(uint64_t generation) {
   return true;
 }
 
+void Session::save_map(uint64_t request_id) {
+  auto self = shared_from_this();
+  post_control([this, self, request_id] {
+    Localizer* localizer = nullptr;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      localizer = localizer_.get();
+    }
+    std::string message;
+    bool ok = false;
+    if (!localizer) {
+      message = "map save request " + std::to_string(request_id) + " refused: no plugin running";
+    } else {
+      try {
+        message = "map saved to " + localizer->save_map();
+        ok = true;
+      } catch (const std::exception& e) {
+        message = "map save request " + std::to_string(request_id) + " refused: " + e.what();
+      }
+    }
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      request_id_ = request_id;
+      request_ok_ = ok;
+      message_ = message;
+      if (!ok) last_error_ = message;
+    }
+    log(ok ? LogLevel::kInfo : LogLevel::kWarning, message);
+    publish_status();
+  });
+}
+
 void Session::stop(uint64_t request_id, const std::string& message) {
   auto self = shared_from_this();
   {

@@ -194,6 +194,7 @@ ExplorationDecision NextBestViewPlanner::decide(const LayeredHexahedralMap& map,
       const double R = reliability(path_length[i]);
       const double T = direction_term(robot, xy, scan_positions);
       const double P = R * S * T;  // eq. 4, alpha = 1
+      best.potential = std::max(best.potential, S);
       if (terms) {
         terms->exploratory.cells[i] = static_cast<float>(e);
         terms->resumable.cells[i] = static_cast<float>(rs);
@@ -210,7 +211,7 @@ ExplorationDecision NextBestViewPlanner::decide(const LayeredHexahedralMap& map,
         best.path_length = path_length[i];
       }
     }
-  best.done = best.score < settings_.done_threshold;
+  best.done = best.potential < settings_.done_threshold;
   if (best.score < 0.0) best.score = 0.0;
   best.heading = (best.goal - robot).norm() > 1e-9 ? std::atan2(best.goal.y() - robot.y(), best.goal.x() - robot.x()) : 0.0;
   return best;

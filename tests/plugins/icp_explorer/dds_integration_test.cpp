@@ -2,7 +2,8 @@
 // icp_explorer session with the toy two-room world's parameters, stops and scans three times
 // with odometry in between, and gets a registered pose per scan near the truth, the registered
 // map (transient-local) and an exploration goal; an all-NaN cloud is rejected with a clear error
-// on its status, counted, and the session carries on.
+// on its status, counted, and the session carries on; a map save request (no path in it) writes
+// the map into the directory of the plugin's config and names the file on the status.
 #include <gtest/gtest.h>
 
 #include <condition_variable>
@@ -36,18 +37,21 @@ struct Seen {
   std::vector<locd::ExplorationGoal> goals;
   std::string goal_plugin;
   size_t map_points = 0;
-  uint64_t rejected = 0;
+  uint64_t rejected = 0, request_id = 0;
+  bool request_ok = false;
   std::string last_error, message;
   bool running = false;
 };
 
-const char* kParams = R"(plugin: icp_explorer
+std::string plugin_config(const fs::path& save_directory) {
+  return R"(plugin: icp_explorer
 params:
   max_points: 50000
   rejection: {max_range: 15.0}
   exploration: {origin: [-0.5, -0.5], size: [11.0, 5.0], rays: 60, candidate_stride: 3, done_threshold: 2.0}
-  map_output: {publish_every_scans: 1, publish_voxel_size: 0.3}
-)";
+  map_output: {publish_every_scans: 1, publish_voxel_size: 0.3, save_directory: )" +
+         save_directory.string() + "}\n";
+}
 
 TEST(IcpExplorerOverDds, RegistersScansPublishesMapAndGoalAndRejectsABadCloud) {
   const fs::path dir = fs::temp_directory_path() / ("icp_explorer_dds_" + std::to_string(::getpid()));
@@ -66,10 +70,14 @@ TEST(IcpExplorerOverDds, RegistersScansPublishesMapAndGoalAndRejectsABadCloud) {
   locd::dds::Writer<locd_msg_InitialPose> initial_pose(participant, locd::topics::kInitialPose, QosProfile::kState);
   locd::dds::Writer<locd_msg_Odometry> odometry(participant, locd::topics::kOdometry, QosProfile::kSensor, 16);
   locd::dds::Writer<locd_msg_PointCloud> clouds(participant, locd::topics::kCloud, QosProfile::kSensor, 4);
+  locd::dds::Writer<locd_msg_MapSaveRequest> save_requests(participant, locd::topics::kMapSaveRequest,
+                                                           QosProfile::kSensor);
   locd::dds::Reader<locd_msg_SessionStatus> statuses(
       participant, locd::topics::kSessionStatus, QosProfile::kState, [&](const locd_msg_SessionStatus& m) {
         std::lock_guard<std::mutex> lock(seen.mutex);
         seen.rejected = m.rejected;
+        seen.request_id = m.request_id;
+        seen.request_ok = m.request_ok;
         seen.last_error = locd::dds::to_string(m.last_error);
         seen.message = locd::dds::to_string(m.message);
         seen.running = m.state == locd_msg_STATE_RUNNING;
@@ -108,7 +116,8 @@ TEST(IcpExplorerOverDds, RegistersScansPublishesMapAndGoalAndRejectsABadCloud) {
   request->request_id = 1;
   request->action = locd_msg_SESSION_START;
   locd::dds::copy_string(request->plugin, "icp_explorer");
-  locd::dds::copy_string(request->config_yaml, std::string(kParams));
+  fs::create_directories(dir / "maps");
+  locd::dds::copy_string(request->config_yaml, plugin_config(dir / "maps"));
   requests.write(*request);
   {
     std::unique_lock<std::mutex> lock(seen.mutex);
@@ -170,6 +179,25 @@ TEST(IcpExplorerOverDds, RegistersScansPublishesMapAndGoalAndRejectsABadCloud) {
   EXPECT_GT(goal.pose.translation().x(), -0.5);
   EXPECT_LT(goal.pose.translation().x(), 10.5);
   EXPECT_GT(seen.map_points, 500u);
+  lock.unlock();
+
+  while (save_requests.matched() == 0) {
+    ASSERT_TRUE(std::chrono::steady_clock::now() < deadline + kTimeout) << "map save request not matched";
+    std::this_thread::sleep_for(10ms);
+  }
+  locd_msg_MapSaveRequest save;
+  std::memset(&save, 0, sizeof save);
+  locd::dds::copy_string(save.robot_id, kRobot);
+  save.request_id = 7;
+  save_requests.write(save);
+  lock.lock();
+  ASSERT_TRUE(seen.changed.wait_for(lock, kTimeout, [&] { return seen.request_id == 7; })) << locd.output();
+  EXPECT_TRUE(seen.request_ok) << seen.message;
+  EXPECT_EQ(seen.message.rfind("map saved to " + fs::canonical(dir / "maps").string() + "/scanner_bot_map_3scans_", 0), 0u)
+      << seen.message;
+  size_t files = 0;
+  for (const auto& entry : fs::directory_iterator(dir / "maps")) files += entry.path().extension() == ".pcd";
+  EXPECT_EQ(files, 1u);
   lock.unlock();
   locd.signal(SIGTERM);
   locd.wait(10s);

@@ -1,6 +1,6 @@
-// The server's DDS side: readers on every sensor topic, session_request and initial_pose; writers
-// for pose, diagnostics, grid, map_cloud, landmark_map, exploration_goal, session_status and
-// server_info.
+// The server's DDS side: readers on every sensor topic, session_request, initial_pose and
+// map_save_request; writers for pose, diagnostics, grid, map_cloud, landmark_map,
+// exploration_goal, session_status and server_info.
 // Listener callbacks convert with locd::dds::from_wire (sizes bounded by the limits before any
 // allocation) and hand over to the Server; they never block.
 #pragma once

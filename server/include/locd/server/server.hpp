@@ -41,6 +41,7 @@ class Server {
   void on_measurement(const std::string& robot_id, Measurement measurement);
   void on_bad_input(const std::string& robot_id, const std::string& topic, const std::string& error);
   void on_initial_pose(const std::string& robot_id, const PoseEstimate& pose);
+  void on_map_save_request(const std::string& robot_id, uint64_t request_id);
 
   void publish_all_status();
   ServerInfoReport info() const;

@@ -41,6 +41,10 @@ class Session : public std::enable_shared_from_this<Session> {
   void reject_input(const std::string& error);
   // Initial pose (from the topic or a boot config): applied on the session's strand.
   void set_pose(const PoseEstimate& pose);
+  // A map save request: Localizer::save_map() runs on the strand (the plugin writes into the
+  // directory its own config names); the file written or the refusal becomes the status message
+  // of request_id.
+  void save_map(uint64_t request_id);
 
   // Each request gets a generation; only the newest one may install its plugin. It also forgets
   // the last accepted stamps, so a restarted robot whose clock begins again is accepted.

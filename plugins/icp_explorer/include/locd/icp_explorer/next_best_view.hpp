@@ -13,8 +13,9 @@
 // r <= reliable_distance, exp(-(r - reliable_distance) / reliable_falloff) beyond) (fig. 3), and
 // T(theta) = 1 - direction_penalty * max over earlier scan positions k within memory_radius of
 // max(0, cos(theta - theta_k)): the topological map's memory, which keeps the robot from
-// oscillating back to where it has scanned. The best P is the goal; exploration is done when
-// no P reaches done_threshold (alpha = 1, so P is in expected newly detected cubes).
+// oscillating back to where it has scanned. The best P is the goal. Exploration is done when no
+// reachable candidate's S reaches done_threshold (S is in expected newly detected cubes): the
+// model is complete whatever the distance, while R and T only rank the goals.
 #pragma once
 
 #include <Eigen/Core>
@@ -50,6 +51,7 @@ struct ExplorationDecision {
   Eigen::Vector2d goal = Eigen::Vector2d::Zero();
   double heading = 0.0;  // direction from the robot to the goal
   double score = 0.0;    // P of the goal
+  double potential = 0.0;  // the largest S over all candidates (decides done)
   double movable = 0.0, exploratory = 0.0, resumable = 0.0, reliability = 0.0, direction = 0.0;
   double path_length = 0.0;
   size_t candidates = 0;
