@@ -3,6 +3,8 @@
 
 #include <unistd.h>
 
+#include <fstream>
+
 #include "locd/emoi_markov/emoi_markov_localizer.hpp"
 #include "locd/sdk/geometry.hpp"
 #include "locd/sdk/plugin_config.hpp"
@@ -201,6 +203,27 @@ TEST(EmoiMarkovRun, ShortDriveOnASmallWorld) {
   ASSERT_FALSE(truth_probability.empty());
   EXPECT_GT(truth_probability.back(), 0.1);  // a uniform belief would hold 12.6 / 3600 = 0.0035
   EXPECT_LT(last_error, 2.0);
+}
+
+}  // namespace
+
+namespace {
+
+// The shipped example config and its DSM (config/maps/emoi_hills.yaml, a PNG sidecar) load.
+TEST(EmoiMarkovConfig, ShippedConfigAndMapLoad) {
+  const fs::path source = std::getenv("LOCD_SOURCE_DIR") ? std::getenv("LOCD_SOURCE_DIR") : ".";
+  std::ifstream in(source / "config/plugins/emoi_markov.yaml");
+  ASSERT_TRUE(in) << "config/plugins/emoi_markov.yaml not found under " << source;
+  const std::string text((std::istreambuf_iterator<char>(in)), {});
+  const PluginConfig config = split_plugin_config(text, "emoi_markov.yaml");
+  EXPECT_EQ(config.plugin, "emoi_markov");
+  PluginContext context;
+  context.maps = MapResolver({source / "config/maps"});
+  EmoiMarkovLocalizer localizer;
+  ASSERT_NO_THROW(localizer.configure(context, config.params));
+  EXPECT_EQ(localizer.grid().geometry().width, 300);
+  EXPECT_NEAR(localizer.grid().geometry().resolution, 0.2, 1e-12);
+  EXPECT_NE(localizer.matcher(), nullptr);
 }
 
 }  // namespace
