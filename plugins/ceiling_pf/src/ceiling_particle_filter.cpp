@@ -209,6 +209,12 @@ CorrectionReport CeilingParticleFilter::correct(const std::vector<Detection>& de
   const double ratio = w_slow_ > 0.0 ? w_fast_ / w_slow_ : 1.0;
   report.injection_probability =
       config_.recovery && 1.0 - ratio >= config_.min_injection_probability ? 1.0 - ratio : 0.0;
+  // While no hypothesis holds half the weight (a global start, after a kidnapping), keep
+  // drawing some particles from the detections: a frame with two landmarks in view fixes the
+  // pose, and the hypotheses the first frames gave may all be wrong.
+  if (config_.recovery && around_best.cluster_mass < 0.5) {
+    report.injection_probability = std::max(report.injection_probability, config_.ambiguous_injection);
+  }
   const bool degenerate = report.effective_sample_size < config_.resample_ess_fraction * static_cast<double>(n);
   if (degenerate || report.injection_probability > 0.0) {
     resample(detections, report);

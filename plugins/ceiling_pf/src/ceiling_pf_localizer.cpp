@@ -104,7 +104,7 @@ class CeilingPfLocalizer : public Localizer {
     fc.resample_ess_fraction = part.number("resample_ess_fraction", 0.5, Range::closed(0.0, 1.0));
 
     const Params rec = params.child("recovery");
-    rec.expect_only({"enabled", "alpha_slow", "alpha_fast", "min_injection_probability", "position_stddev",
+    rec.expect_only({"enabled", "alpha_slow", "alpha_fast", "min_injection_probability", "ambiguous_injection", "position_stddev",
                      "heading_stddev", "pair_distance_tolerance"});
     fc.recovery = rec.flag("enabled", true);
     fc.alpha_slow = rec.number("alpha_slow", fc.alpha_slow, Range::open(0.0, 1.0));
@@ -114,6 +114,7 @@ class CeilingPfLocalizer : public Localizer {
     }
     fc.min_injection_probability =
         rec.number("min_injection_probability", fc.min_injection_probability, Range::closed(0.0, 1.0));
+    fc.ambiguous_injection = rec.number("ambiguous_injection", fc.ambiguous_injection, Range::closed(0.0, 1.0));
     fc.proposal_position_stddev = rec.number("position_stddev", fc.proposal_position_stddev, Range::closed(0.0, 10.0));
     fc.proposal_heading_stddev = rec.number("heading_stddev", fc.proposal_heading_stddev, Range::closed(0.0, M_PI));
     fc.pair_distance_tolerance = rec.number("pair_distance_tolerance", fc.pair_distance_tolerance, Range::open(0.0, 10.0));

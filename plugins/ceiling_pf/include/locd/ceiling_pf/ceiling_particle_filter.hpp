@@ -35,7 +35,7 @@ struct ParticleFilterConfig {
   size_t particles = 500;
   bool kld_sampling = true;
   size_t min_particles = 100;
-  size_t max_particles = 5000;
+  size_t max_particles = 20000;
   size_t global_particles = 20000;  // drawn at a global (re)start
   double kld_epsilon = 0.05;
   double kld_quantile = 0.99;       // 1 - delta
@@ -46,7 +46,8 @@ struct ParticleFilterConfig {
   bool recovery = true;
   double alpha_slow = 0.001;
   double alpha_fast = 0.1;
-  double min_injection_probability = 0.5;  // inject only when 1 - w_fast / w_slow reaches this
+  double min_injection_probability = 0.3;  // inject only when 1 - w_fast / w_slow reaches this
+  double ambiguous_injection = 0.2;        // share injected while the main cluster holds < half the weight
   double proposal_position_stddev = 0.05;  // m, noise on poses drawn from detections
   double proposal_heading_stddev = 0.02;   // rad
   double pair_distance_tolerance = 0.15;   // m, detected vs mapped landmark pair distance
