@@ -7,13 +7,18 @@
 
 #include "locd/sdk/errors.hpp"
 #include "locd/sdk/plugin_config.hpp"
+#include "locd/sdk/plugin_loader.hpp"
+
+#include <unistd.h>
+#include <yaml-cpp/yaml.h>
 
 namespace locd::sim::emoi {
 namespace fs = std::filesystem;
 
 FourPositionsScenario load_four_positions(const fs::path& file) {
   const Params root = Params::load_file(file.string());
-  root.expect_only({"name", "seed", "runs", "world", "robot", "sensors", "localizer", "evaluation"});
+  root.expect_only({"kind", "name", "seed", "runs", "world", "robot", "sensors", "localizer", "evaluation"});
+  const std::string kind = root.text("kind", "emoi_four_positions", {"emoi_four_positions"});
   FourPositionsScenario s;
   s.name = root.text("name", "emoi_four_positions");
   s.seed = static_cast<uint64_t>(root.integer("seed", 1, 0, 1L << 40));
@@ -112,28 +117,14 @@ void simulate_measurements(const FourPositionsScenario& scenario, const Simulate
   }
 }
 
-RunResult run_four_positions(const FourPositionsScenario& scenario, uint64_t seed,
-                             const std::function<void(LogLevel, const std::string&)>& log) {
+namespace {
+
+RunResult drive(const FourPositionsScenario& scenario, const SimulatedRun& run, uint64_t seed, Localizer& localizer,
+                const locd::emoi::EmoiMarkovLocalizer* core) {
   RunResult result;
   result.seed = seed;
-  const SimulatedRun run = build_run(scenario, seed);
-  const PluginConfig plugin = split_plugin_config(scenario.localizer_config_text, scenario.localizer_config_file.string());
-  if (plugin.plugin != "emoi_markov") {
-    throw ConfigError("scenario localizer runs plugin '" + plugin.plugin + "'; the in-process run needs emoi_markov");
-  }
-  locd::emoi::EmoiMarkovConfig config = locd::emoi::parse_config(plugin.params);
-  config.cache = false;  // every seed is a new world
-  PluginContext context;
-  context.robot_id = scenario.robot_id;
-  if (log) context.log = log;
-  locd::emoi::EmoiMarkovLocalizer localizer;
-  const auto start = std::chrono::steady_clock::now();
-  localizer.configure(context, config, run.dsm);
-  result.layers_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-
   double update_ms_total = 0.0;
   simulate_measurements(scenario, run, seed, [&](const Measurement& m, const Eigen::Isometry3d& truth) {
-    const size_t before = localizer.sensor_updates();
     const auto t0 = std::chrono::steady_clock::now();
     UpdateResult out;
     try {
@@ -141,10 +132,11 @@ RunResult run_four_positions(const FourPositionsScenario& scenario, uint64_t see
     } catch (const InputError&) {
       return false;
     }
-    if (localizer.sensor_updates() == before) return false;
+    // A sensor update is the one that publishes the belief grid.
+    if (!out.grid || !out.estimate) return false;
     update_ms_total += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     UpdateRecord record;
-    record.update = static_cast<int>(localizer.sensor_updates());
+    record.update = static_cast<int>(result.updates.size()) + 1;
     record.time_s = static_cast<double>(header_of(m).stamp_ns) * 1e-9;
     record.truth = truth.translation().head<2>();
     record.mode = out.estimate->pose.translation().head<2>();
@@ -154,12 +146,12 @@ RunResult run_four_positions(const FourPositionsScenario& scenario, uint64_t see
       if (name.rfind("emoi_r", 0) == 0) record.robot_emoi.push_back(value);
     }
     int row = 0, col = 0;
-    if (const auto* layers = localizer.full_disk_layers()) {
-      if (localizer.grid().geometry().index_of(record.truth, row, col)) {
-        for (const auto& layer : layers->layers) record.dsm_emoi.push_back(layer(row, col));
+    if (core && core->full_disk_layers()) {
+      if (core->grid().geometry().index_of(record.truth, row, col)) {
+        for (const auto& layer : core->full_disk_layers()->layers) record.dsm_emoi.push_back(layer(row, col));
       }
-    } else if (localizer.last_match() && localizer.matcher()->surface().geometry.index_of(record.truth, row, col)) {
-      for (const auto& layer : localizer.last_match()->dsm_emoi) record.dsm_emoi.push_back(layer(row, col));
+    } else if (core && core->last_match() && core->matcher()->surface().geometry.index_of(record.truth, row, col)) {
+      for (const auto& layer : core->last_match()->dsm_emoi) record.dsm_emoi.push_back(layer(row, col));
     }
     result.updates.push_back(record);
     return static_cast<int>(result.updates.size()) >= scenario.updates;
@@ -168,6 +160,117 @@ RunResult run_four_positions(const FourPositionsScenario& scenario, uint64_t see
   result.success = static_cast<int>(result.updates.size()) >= scenario.updates &&
                    result.updates.back().error_m <= scenario.success_radius_m;
   return result;
+}
+
+PluginConfig scenario_plugin_config(const FourPositionsScenario& scenario) {
+  const PluginConfig plugin = split_plugin_config(scenario.localizer_config_text, scenario.localizer_config_file.string());
+  if (plugin.plugin != "emoi_markov") {
+    throw ConfigError("scenario localizer runs plugin '" + plugin.plugin + "'; this scenario needs emoi_markov");
+  }
+  return plugin;
+}
+
+}  // namespace
+
+RunResult run_four_positions(const FourPositionsScenario& scenario, uint64_t seed,
+                             const std::function<void(LogLevel, const std::string&)>& log) {
+  const SimulatedRun run = build_run(scenario, seed);
+  locd::emoi::EmoiMarkovConfig config = locd::emoi::parse_config(scenario_plugin_config(scenario).params);
+  config.cache = false;  // every seed is a new world
+  PluginContext context;
+  context.robot_id = scenario.robot_id;
+  if (log) context.log = log;
+  locd::emoi::EmoiMarkovLocalizer localizer;
+  const auto start = std::chrono::steady_clock::now();
+  localizer.configure(context, config, run.dsm);
+  const double layers_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  RunResult result = drive(scenario, run, seed, localizer, &localizer);
+  result.layers_seconds = layers_seconds;
+  return result;
+}
+
+RunResult run_four_positions_with(const FourPositionsScenario& scenario, uint64_t seed, const LocalizerMaker& make) {
+  const SimulatedRun run = build_run(scenario, seed);
+  const fs::path directory =
+      fs::temp_directory_path() / ("locsim_emoi_" + std::to_string(::getpid()) + "_" + std::to_string(seed));
+  fs::create_directories(directory);
+  locd::emoi::write_dsm_geotiff(run.dsm, directory / "world.tif");
+  YAML::Node document = YAML::Load(scenario.localizer_config_text);
+  document["params"]["map"] = "world.tif";
+  document["params"]["cache"] = false;  // every seed is a new world
+  YAML::Emitter emitter;
+  emitter << document;
+  const PluginConfig plugin = split_plugin_config(emitter.c_str(), scenario.localizer_config_file.string());
+  RunResult result;
+  try {
+    const auto start = std::chrono::steady_clock::now();
+    std::shared_ptr<Localizer> localizer = make(directory, plugin.params);
+    const double layers_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    result = drive(scenario, run, seed, *localizer, nullptr);
+    result.layers_seconds = layers_seconds;
+  } catch (...) {
+    fs::remove_all(directory);
+    throw;
+  }
+  fs::remove_all(directory);
+  return result;
+}
+
+bool is_four_positions_scenario(const fs::path& file) {
+  try {
+    const YAML::Node root = YAML::LoadFile(file.string());
+    return root.IsMap() && root["kind"] && root["kind"].as<std::string>() == "emoi_four_positions";
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+int locsim_run_four_positions(const fs::path& file, const std::vector<fs::path>& plugin_directories,
+                              std::optional<uint64_t> seed, bool json, std::ostream& out) {
+  const FourPositionsScenario scenario = load_four_positions(file);
+  const PluginCatalog catalog(plugin_directories);
+  const std::vector<uint64_t> seeds = [&] {
+    std::vector<uint64_t> s;
+    if (seed) return std::vector<uint64_t>{*seed};
+    for (int k = 0; k < scenario.runs; ++k) s.push_back(scenario.seed + static_cast<uint64_t>(k));
+    return s;
+  }();
+  int successes = 0;
+  bool complete = true;
+  std::vector<RunResult> results;
+  for (uint64_t s : seeds) {
+    RunResult r = run_four_positions_with(scenario, s, [&](const fs::path& directory, const Params& params) {
+      PluginContext context;
+      context.robot_id = scenario.robot_id;
+      context.maps = MapResolver({directory});
+      return std::shared_ptr<Localizer>(create_configured(catalog, "emoi_markov", context, params));
+    });
+    successes += r.success ? 1 : 0;
+    complete = complete && static_cast<int>(r.updates.size()) >= scenario.updates;
+    if (!json) {
+      out << "seed " << r.seed << (r.success ? "  ok  " : "  FAIL") << "  error after each update [m]:";
+      for (const auto& u : r.updates) out << " " << u.error_m;
+      out << "\n" << std::flush;
+    }
+    results.push_back(std::move(r));
+  }
+  const double rate = seeds.empty() ? 0.0 : static_cast<double>(successes) / static_cast<double>(seeds.size());
+  if (json) {
+    out << "{\"scenario\": \"" << scenario.name << "\", \"plugin\": \"emoi_markov\", \"runs\": " << seeds.size()
+        << ", \"successes\": " << successes << ", \"success_rate\": " << rate
+        << ", \"success_radius_m\": " << scenario.success_radius_m << ", \"updates\": " << scenario.updates
+        << ", \"errors_m\": [";
+    for (size_t i = 0; i < results.size(); ++i) {
+      out << (i ? ", " : "") << "[";
+      for (size_t k = 0; k < results[i].updates.size(); ++k) out << (k ? ", " : "") << results[i].updates[k].error_m;
+      out << "]";
+    }
+    out << "]}\n";
+  } else {
+    out << "success: " << successes << " / " << seeds.size() << " (belief maximum within " << scenario.success_radius_m
+        << " m of the truth after update " << scenario.updates << ")\n";
+  }
+  return complete ? 0 : 1;
 }
 
 }  // namespace locd::sim::emoi

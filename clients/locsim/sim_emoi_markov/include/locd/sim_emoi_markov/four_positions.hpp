@@ -6,6 +6,9 @@
 
 #include <filesystem>
 #include <functional>
+#include <memory>
+#include <optional>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -71,8 +74,24 @@ SimulatedRun build_run(const FourPositionsScenario& scenario, uint64_t seed);
 void simulate_measurements(const FourPositionsScenario& scenario, const SimulatedRun& run, uint64_t seed,
                            const std::function<bool(const Measurement&, const Eigen::Isometry3d& truth)>& sink);
 
-// One seeded run through EmoiMarkovLocalizer in-process.
+// One seeded run through EmoiMarkovLocalizer in-process (the DSM handed over in memory).
 RunResult run_four_positions(const FourPositionsScenario& scenario, uint64_t seed,
                              const std::function<void(LogLevel, const std::string&)>& log = {});
+
+// One seeded run through a localizer made by `make` (e.g. the emoi_markov plugin loaded by name):
+// make(map_directory, map_name, plugin_params) gets the run's DSM written as a GeoTIFF in a fresh
+// map directory and the scenario's plugin parameters with `map` pointing at it.
+using LocalizerMaker = std::function<std::shared_ptr<Localizer>(const std::filesystem::path& map_directory,
+                                                                const Params& params)>;
+RunResult run_four_positions_with(const FourPositionsScenario& scenario, uint64_t seed, const LocalizerMaker& make);
+
+// locsim's hook: true when the scenario file says `kind: emoi_four_positions`.
+bool is_four_positions_scenario(const std::filesystem::path& file);
+
+// `locsim run` for this scenario: every seed (or only `seed`) through the plugin loaded by name
+// from plugin_directories; a summary (or JSON) on out. Exit code 0 when every run produced its
+// updates, 1 otherwise.
+int locsim_run_four_positions(const std::filesystem::path& file, const std::vector<std::filesystem::path>& plugin_directories,
+                              std::optional<uint64_t> seed, bool json, std::ostream& out);
 
 }  // namespace locd::sim::emoi
