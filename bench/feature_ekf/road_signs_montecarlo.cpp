@@ -5,6 +5,7 @@
 //   road_signs_montecarlo config/scenarios/road_signs.yaml --runs 100 [--strategies a,b] [--csv DIR]
 #include <algorithm>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -63,12 +64,23 @@ int main(int argc, char** argv) {
     const uint64_t route_seed = static_cast<uint64_t>(scenario.integer("seed", 5, 0, 1L << 40));
     const std::vector<double> offset = scenario.child("localizer").numbers("initial_position_offset", {3.0, -2.0}, 2);
     const std::vector<double> stddev = scenario.child("localizer").numbers("initial_stddev", {5.0, 0.5}, 2);
+    // The filter's parameters from the scenario's plugin config (the strategy is varied here).
+    const std::filesystem::path config_file = std::filesystem::path(argv[1]).parent_path() /
+                                              scenario.child("localizer").required_text("config_file");
+    const Params plugin = Params::load_file(config_file.string()).child("params");
 
     std::cout << std::fixed << std::setprecision(4) << "{\n  \"scenario\": \"" << argv[1] << "\",\n  \"runs\": " << runs
               << ",\n  \"signs\": " << world.signs().size() << ",\n  \"road_length_m\": " << world.road_length()
               << ",\n  \"strategies\": {";
     for (size_t si = 0; si < strategies.size(); ++si) {
       LandmarkEkfConfig config = test::config_for(world, strategies[si]);
+      LandmarkAssociationConfig& a = config.association;
+      a.gate_threshold = plugin.number("gate_threshold", a.gate_threshold);
+      a.false_detection_probability = plugin.number("false_detection_probability", a.false_detection_probability);
+      a.jcbb_max_nodes = static_cast<size_t>(plugin.integer("jcbb_max_nodes", static_cast<long>(a.jcbb_max_nodes), 1, 10'000'000));
+      config.velocity_noise_per_step = plugin.number("velocity_noise_per_step", config.velocity_noise_per_step);
+      config.position_noise_per_step = plugin.number("position_noise_per_step", config.position_noise_per_step);
+      config.detection_stddev = plugin.number("detection_stddev", config.detection_stddev);
       config.initial_position_stddev = stddev[0];
       config.initial_velocity_stddev = stddev[1];
       std::vector<double> pooled;
