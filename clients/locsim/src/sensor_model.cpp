@@ -2,12 +2,13 @@
 
 #include "locd/sim/laser_scanner.hpp"
 #include "locd/sim/odometry_model.hpp"
+#include "locd/sim_ceiling_pf/ceiling_camera_sensor.hpp"
 
 namespace locd::sim {
 
 std::vector<std::unique_ptr<SensorModel>> make_sensor_models(const Params& sensors,
                                                              std::shared_ptr<const SegmentWorld> world) {
-  sensors.expect_only({"odometry", "laser"});
+  sensors.expect_only({"odometry", "laser", "ceiling_camera"});
   std::vector<std::unique_ptr<SensorModel>> models;
   // Odometry first: at equal stamps a plugin predicts before it corrects.
   if (sensors.has("odometry")) {
@@ -16,7 +17,10 @@ std::vector<std::unique_ptr<SensorModel>> make_sensor_models(const Params& senso
   if (sensors.has("laser")) {
     models.push_back(std::make_unique<LaserScannerModel>(LaserScannerConfig::from_params(sensors.child("laser")), world));
   }
-  if (models.empty()) throw ConfigError("parameter 'sensors' names no sensor; known: odometry, laser");
+  if (sensors.has("ceiling_camera")) {
+    models.push_back(ceiling::make_ceiling_camera_sensor(sensors.child("ceiling_camera")));
+  }
+  if (models.empty()) throw ConfigError("parameter 'sensors' names no sensor; known: odometry, laser, ceiling_camera");
   return models;
 }
 
