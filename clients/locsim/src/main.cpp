@@ -9,9 +9,11 @@
 #include <vector>
 
 #include "live.hpp"
+#include "live_emoi_markov.hpp"
 #include "locd/sim/offline_runner.hpp"
 #include "locd/sim/report.hpp"
 #include "locd/sim/scenario.hpp"
+#include "locd/sim_emoi_markov/four_positions.hpp"
 
 namespace fs = std::filesystem;
 
@@ -110,6 +112,11 @@ int main(int argc, char** argv) {
       }
     }
     if (scenario_file.empty()) throw UsageError("locsim " + mode + " needs a SCENARIO.yaml");
+    if (locd::sim::emoi::is_four_positions_scenario(scenario_file)) {  // emoi_markov's experiment
+      if (mode == "live") return locd::sim::run_four_positions_live(scenario_file, live, seed, json);
+      if (plugin_directories.empty()) plugin_directories.push_back(default_plugin_directory());
+      return locd::sim::emoi::locsim_run_four_positions(scenario_file, plugin_directories, seed, json, std::cout);
+    }
     const locd::sim::Scenario scenario = locd::sim::load_scenario(scenario_file);
 
     if (mode == "live") {
