@@ -26,6 +26,15 @@ double percentile(std::vector<double> v, double p) {
 
 }  // namespace
 
+bool is_road_signs_scenario(const std::filesystem::path& scenario_file) {
+  try {
+    const YAML::Node root = YAML::LoadFile(scenario_file.string());
+    return root.IsMap() && root["sensors"] && root["sensors"].IsMap() && root["sensors"]["sign_detector"];
+  } catch (const YAML::Exception&) {
+    return false;
+  }
+}
+
 MonteCarloResult run_montecarlo(const MonteCarloOptions& options) {
   const Params scenario = Params::load_file(options.scenario_file.string());
   const RoadSignWorld world(WorldConfig::from_params(scenario.child("world")));

@@ -39,6 +39,9 @@ struct MonteCarloResult {
   std::vector<StrategyResult> strategies;
 };
 
+// A road-sign scenario: one with sensors.sign_detector (read with yaml only, no validation).
+bool is_road_signs_scenario(const std::filesystem::path& scenario_file);
+
 // Throws ConfigError / std::runtime_error on a bad scenario or plugin config.
 MonteCarloResult run_montecarlo(const MonteCarloOptions& options);
 void write_montecarlo_json(std::ostream& out, const MonteCarloResult& result);
