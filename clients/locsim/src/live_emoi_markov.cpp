@@ -76,7 +76,10 @@ int run_four_positions_live(const fs::path& scenario_file, const LiveOptions& op
     emoi::simulate_measurements(scenario, run, s, [&](const Measurement& measurement, const Eigen::Isometry3d& truth) {
       Measurement m = measurement;
       const int64_t sim_ns = header_of(m).stamp_ns;
-      std::visit([&](auto& value) { value.header.stamp_ns = base + sim_ns; }, m);
+      // Scans one nanosecond after the odometry of the same instant: a pose stamped like a scan is
+      // then the pose of a sensor update (odometry poses carry the odometry's stamp).
+      const int64_t nudge = std::holds_alternative<LaserScan>(m) ? 1 : 0;
+      std::visit([&](auto& value) { value.header.stamp_ns = base + sim_ns + nudge; }, m);
       std::this_thread::sleep_until(wall_start + std::chrono::nanoseconds(static_cast<int64_t>(sim_ns / options.rate)));
       const int64_t wall = std::chrono::duration_cast<std::chrono::nanoseconds>(
                                std::chrono::system_clock::now().time_since_epoch()).count();
