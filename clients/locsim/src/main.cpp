@@ -14,6 +14,7 @@
 #include "locd/sim/report.hpp"
 #include "locd/sim/scenario.hpp"
 #include "locd/sim_emoi_markov/four_positions.hpp"
+#include "locd/sim_icp_explorer/exploration_mission.hpp"
 
 namespace fs = std::filesystem;
 
@@ -116,6 +117,11 @@ int main(int argc, char** argv) {
       if (mode == "live") return locd::sim::run_four_positions_live(scenario_file, live, seed, json);
       if (plugin_directories.empty()) plugin_directories.push_back(default_plugin_directory());
       return locd::sim::emoi::locsim_run_four_positions(scenario_file, plugin_directories, seed, json, std::cout);
+    }
+    if (locd::sim::is_exploration_scenario(scenario_file)) {  // icp_explorer's exploration mission
+      if (mode == "live") throw UsageError("the icp_explorer exploration scenario runs offline only: locsim run");
+      if (plugin_directories.empty()) plugin_directories.push_back(default_plugin_directory());
+      return locd::sim::locsim_run_exploration(scenario_file, plugin_directories, seed, json, std::cout);
     }
     const locd::sim::Scenario scenario = locd::sim::load_scenario(scenario_file);
 

@@ -43,7 +43,7 @@ struct ExplorationSettings {
   double overlap_distance = 1.0;     // m
   double direction_penalty = 0.5;
   double memory_radius = 6.0;        // m
-  double done_threshold = 2.0;
+  double done_threshold = 0.5;
 };
 
 struct ExplorationDecision {
