@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <sstream>
 
 #include <opencv2/core.hpp>
 
@@ -132,7 +133,9 @@ std::vector<cv::Mat_<double>> emoi_fft(const ElevationMap& map, const std::vecto
   std::vector<cv::Mat_<double>> result;
   for (double radius_m : radii_m) {
     const int radius_cells = radius_in_cells(radius_m, resolution);
-    const std::string stage = "radius " + std::to_string(radius_m) + " m";
+    std::ostringstream stage_text;
+    stage_text << "radius " << radius_m << " m";
+    const std::string stage = stage_text.str();
     // Kernels with their centre at (R', R'): r^2 over the disk (eq. 7's weight) and the disk.
     cv::Mat moment_kernel = cv::Mat::zeros(padded_rows, padded_cols, CV_64F);
     cv::Mat disk_kernel = cv::Mat::zeros(padded_rows, padded_cols, CV_64F);
