@@ -64,8 +64,10 @@ Odometry odometry_at(const Pose2& pose, int64_t stamp) {
 TEST_F(FeatureEkfPlugin, LoadsThroughTheCatalogAndLocalizes) {
   const auto library = catalog_.find("feature_ekf");
   ASSERT_NE(library, nullptr) << "plugin dir " << test::plugin_dir();
+  // Laser model: odometry and scans; landmark models (issue 3): imu and detections.
   EXPECT_EQ(library->descriptor().consumes,
-            kinds(MeasurementKind::kOdometry, MeasurementKind::kLaserScan));
+            kinds(MeasurementKind::kOdometry, MeasurementKind::kLaserScan, MeasurementKind::kImu,
+                  MeasurementKind::kLandmarkDetections));
 
   LocalizerPtr localizer = configured("  map: building.yaml\n  gate_probability: 0.99\n");
   const UpdateResult outputs = localizer->initial_outputs();
