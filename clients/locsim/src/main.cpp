@@ -5,6 +5,7 @@
 #include <iostream>
 #include <limits>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,7 @@
 #include "locd/sim/offline_runner.hpp"
 #include "locd/sim/report.hpp"
 #include "locd/sim/scenario.hpp"
+#include "locd/sim_feature_ekf/montecarlo.hpp"
 #include "locd/sim_emoi_markov/four_positions.hpp"
 #include "locd/sim_icp_explorer/exploration_mission.hpp"
 
@@ -28,6 +30,10 @@ const char* kUsage =
     "              [--server-timeout S]\n"
     "      real time against a running locd (DDS through CYCLONEDDS_URI); --rate 2 runs twice as fast;\n"
     "      waits --server-timeout seconds (default 10) for the server and each answer\n"
+    "  locsim montecarlo SCENARIO.yaml [--runs N] [--strategies a,b,...] [--json] [--plot FILE.png]\n"
+    "                   [--plugin-dir DIR] [--seed N] [--duration S]\n"
+    "      a road-sign scenario (feature_ekf landmarks), N seeded drives per association strategy\n"
+    "      (default: known_id, nearest_neighbor, jcbb, pda) side by side: CEP50/CEP95, wrong associations\n"
     "  locsim --help\n"
     "Plugin directory for run: --plugin-dir, else $LOCD_PLUGIN_DIR, else <locsim's dir>/../plugins.\n";
 
@@ -74,13 +80,14 @@ int main(int argc, char** argv) {
   }
   try {
     const std::string mode = args[0];
-    if (mode != "run" && mode != "live") throw UsageError("unknown command '" + mode + "'; known: run, live");
+    if (mode != "run" && mode != "live" && mode != "montecarlo") throw UsageError("unknown command '" + mode + "'; known: run, live, montecarlo");
     std::string scenario_file, plot_file;
     bool json = false;
     std::optional<uint64_t> seed;
     std::optional<double> duration;
     std::vector<fs::path> plugin_directories;
     locd::sim::LiveOptions live;
+    locd::sim::road_signs::MonteCarloOptions road_signs;
     for (size_t i = 1; i < args.size(); ++i) {
       const std::string& a = args[i];
       auto value = [&]() -> std::string {
@@ -95,7 +102,13 @@ int main(int argc, char** argv) {
         seed = parse_unsigned(a, value(), std::numeric_limits<long>::max());
       } else if (a == "--duration") {
         duration = parse_number(a, value(), 1e-3, 86400.0);
-      } else if (a == "--plugin-dir" && mode == "run") {
+      } else if (a == "--runs" && mode == "montecarlo") {
+        road_signs.runs = static_cast<int>(parse_unsigned(a, value(), 100000));
+      } else if (a == "--strategies" && mode == "montecarlo") {
+        road_signs.strategies.clear();
+        std::stringstream list(value());
+        for (std::string name; std::getline(list, name, ',');) road_signs.strategies.push_back(name);
+      } else if (a == "--plugin-dir" && (mode == "run" || mode == "montecarlo")) {
         plugin_directories.push_back(value());
       } else if (a == "--domain" && mode == "live") {
         live.domain_id = static_cast<uint32_t>(parse_unsigned(a, value(), 232));
@@ -113,6 +126,29 @@ int main(int argc, char** argv) {
       }
     }
     if (scenario_file.empty()) throw UsageError("locsim " + mode + " needs a SCENARIO.yaml");
+    // feature_ekf's road-sign scenarios: `run` is one drive per strategy, `montecarlo` N drives.
+    if (mode == "montecarlo" || (mode == "run" && locd::sim::road_signs::is_road_signs_scenario(scenario_file))) {
+      if (!locd::sim::road_signs::is_road_signs_scenario(scenario_file)) {
+        throw UsageError("locsim montecarlo needs a road-sign scenario (sensors.sign_detector), e.g. config/scenarios/road_signs.yaml");
+      }
+      if (plugin_directories.empty()) plugin_directories.push_back(default_plugin_directory());
+      road_signs.scenario_file = scenario_file;
+      road_signs.plugin_directories = plugin_directories;
+      road_signs.seed = seed;
+      road_signs.duration_s = duration;
+      if (mode == "run") road_signs.runs = 1;
+      const auto result = locd::sim::road_signs::run_montecarlo(road_signs);
+      if (json) {
+        locd::sim::road_signs::write_montecarlo_json(std::cout, result);
+      } else {
+        locd::sim::road_signs::write_montecarlo_summary(std::cout, result);
+      }
+      if (!plot_file.empty()) {
+        locd::sim::road_signs::plot_montecarlo(plot_file, result);
+        (json ? std::cerr : std::cout) << "plot: " << plot_file << "\n";
+      }
+      return 0;
+    }
     if (locd::sim::emoi::is_four_positions_scenario(scenario_file)) {  // emoi_markov's experiment
       if (mode == "live") return locd::sim::run_four_positions_live(scenario_file, live, seed, json);
       if (plugin_directories.empty()) plugin_directories.push_back(default_plugin_directory());
