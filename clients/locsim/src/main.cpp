@@ -127,6 +127,9 @@ int main(int argc, char** argv) {
     }
     if (scenario_file.empty()) throw UsageError("locsim " + mode + " needs a SCENARIO.yaml");
     // feature_ekf's road-sign scenarios: `run` is one drive per strategy, `montecarlo` N drives.
+    if (mode == "live" && locd::sim::road_signs::is_road_signs_scenario(scenario_file)) {
+      throw UsageError("the road-sign scenario runs offline only: locsim run or locsim montecarlo");
+    }
     if (mode == "montecarlo" || (mode == "run" && locd::sim::road_signs::is_road_signs_scenario(scenario_file))) {
       if (!locd::sim::road_signs::is_road_signs_scenario(scenario_file)) {
         throw UsageError("locsim montecarlo needs a road-sign scenario (sensors.sign_detector), e.g. config/scenarios/road_signs.yaml");
