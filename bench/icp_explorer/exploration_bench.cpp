@@ -31,7 +31,9 @@ void BM_Explore(benchmark::State& state, locd::bench::Strategy strategy) {
   locd::bench::ExplorationRun run;
   for (auto _ : state) run = locd::bench::explore(strategy, seed, kMaxScans, kTargetCoverage, reference(), world());
   state.counters["scans_to_95"] = run.scans_to_target;
+  state.counters["scans_to_90"] = run.scans_to_90;
   state.counters["scans"] = run.scans;
+  state.counters["done"] = run.done ? 1.0 : 0.0;
   state.counters["coverage"] = run.coverage;
   state.counters["path_m"] = run.path_length;
   state.counters["max_error_cm"] = run.max_error_cm;

@@ -82,6 +82,7 @@ inline icp_explorer::IcpExplorerConfig four_rooms_config() {
 struct ExplorationRun {
   int scans = 0;
   int scans_to_target = -1;         // first scan count reaching the target coverage
+  int scans_to_90 = -1;             // first scan count reaching 90 % coverage
   double coverage = 0.0;            // after the last scan
   double path_length = 0.0;         // m, straight legs between scan stops
   double max_error_cm = 0.0;        // registration error, worst scan
@@ -117,6 +118,7 @@ inline ExplorationRun explore(Strategy strategy, uint64_t seed, int max_scans, d
     run.coverage = coverage.ratio();
     run.max_error_cm = std::max(run.max_error_cm, 100.0 * translation_error(outcome.T_map_base, truth.to_isometry()));
     run.max_error_deg = std::max(run.max_error_deg, rotation_error_deg(outcome.T_map_base, truth.to_isometry()));
+    if (run.scans_to_90 < 0 && run.coverage >= 0.9) run.scans_to_90 = run.scans;
     if (run.scans_to_target < 0 && run.coverage >= target_coverage) {
       run.scans_to_target = run.scans;
       break;
