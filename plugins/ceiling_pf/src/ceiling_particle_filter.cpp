@@ -75,10 +75,12 @@ void CeilingParticleFilter::set_pose(const Pose2& mean, const Eigen::Matrix3d& c
   mode_ = mean;
   w_slow_ = w_fast_ = 0.0;
   just_injected_.clear();
+  localized_ = true;
 }
 
 void CeilingParticleFilter::set_unknown() {
   particles_.clear();
+  localized_ = false;
   mode_.reset();
   w_slow_ = w_fast_ = 0.0;
 }
@@ -209,10 +211,14 @@ CorrectionReport CeilingParticleFilter::correct(const std::vector<Detection>& de
   const double ratio = w_slow_ > 0.0 ? w_fast_ / w_slow_ : 1.0;
   report.injection_probability =
       config_.recovery && 1.0 - ratio >= config_.min_injection_probability ? 1.0 - ratio : 0.0;
-  // While no hypothesis holds half the weight (a global start, after a kidnapping), keep
+  // Until one hypothesis holds half the weight after a global start or a kidnapping, keep
   // drawing some particles from the detections: a frame with two landmarks in view fixes the
-  // pose, and the hypotheses the first frames gave may all be wrong.
-  if (config_.recovery && around_best.cluster_mass < 0.5) {
+  // pose, and the hypotheses the first frames gave may all be wrong. A localized filter whose
+  // cluster thins out for a moment does not do this (the injected particles would keep the
+  // cluster's share low and so keep injecting).
+  if (report.global_start || report.injection_probability > 0.0) localized_ = false;
+  if (around_best.cluster_mass >= 0.5) localized_ = true;
+  if (config_.recovery && !localized_) {
     report.injection_probability = std::max(report.injection_probability, config_.ambiguous_injection);
   }
   const bool degenerate = report.effective_sample_size < config_.resample_ess_fraction * static_cast<double>(n);

@@ -46,8 +46,8 @@ struct ParticleFilterConfig {
   bool recovery = true;
   double alpha_slow = 0.001;
   double alpha_fast = 0.1;
-  double min_injection_probability = 0.3;  // inject only when 1 - w_fast / w_slow reaches this
-  double ambiguous_injection = 0.2;        // share injected while the main cluster holds < half the weight
+  double min_injection_probability = 0.5;  // inject only when 1 - w_fast / w_slow reaches this
+  double ambiguous_injection = 0.2;        // share injected after a (re)start until a cluster holds half the weight
   double proposal_position_stddev = 0.05;  // m, noise on poses drawn from detections
   double proposal_heading_stddev = 0.02;   // rad
   double pair_distance_tolerance = 0.15;   // m, detected vs mapped landmark pair distance
@@ -141,6 +141,7 @@ class CeilingParticleFilter {
   std::mt19937_64 rng_;
   double w_slow_ = 0.0, w_fast_ = 0.0;
   std::optional<Pose2> mode_;  // last mode, carried through predictions
+  bool localized_ = false;     // one cluster has held half the weight since the last (re)start
   // Ordered landmark pairs (i, j) sorted by distance, for the detection proposal.
   std::vector<double> pair_distance_;
   std::vector<std::pair<int, int>> pairs_;
