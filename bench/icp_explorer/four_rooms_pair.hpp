@@ -40,7 +40,8 @@ inline RegistrationPair make_pair(double map_voxel_size = 0.1, double translatio
     const Eigen::Isometry3d T = stop.to_isometry();
     const auto s = pair.scanner.scan(pair.world, T, 0.0, 0, rng);
     pair.model.insert(icp_explorer::voxel_downsample(s.cloud.points, s.cloud.intensity, map_voxel_size,
-                                                     T * s.cloud.sensor_pose));
+                                                     T * s.cloud.sensor_pose),
+                      (T * s.cloud.sensor_pose).translation());
   }
   pair.truth = Pose2(5.5, 4.5, 0.6).to_isometry();
   const auto s = pair.scanner.scan(pair.world, pair.truth, 20.0, 1, rng);

@@ -54,6 +54,7 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
   const bool with_intensity = scan.has_intensity() && rejector.rules().intensity;
   const float no_intensity = std::numeric_limits<float>::quiet_NaN();
   double kernel = std::max(settings.initial_kernel_scale, settings.kernel_scale);
+  const bool oriented = model.normals_face_scanners();
   for (int iteration = 0; iteration < settings.max_iterations; ++iteration) {
     Matrix6d H = Matrix6d::Zero();
     Vector6d g = Vector6d::Zero();
@@ -77,7 +78,7 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
       ++step.counts[static_cast<size_t>(verdict)];
       if (verdict != Rejection::kAccepted) continue;
       const Eigen::Vector3d& n = model.normals()[j];
-      if (n.dot(scanner - q) < 0.0) {
+      if (oriented && n.dot(scanner - q) < 0.0) {
         ++step.back_facing;
         continue;
       }

@@ -45,9 +45,11 @@ void VoxelMap::clear() {
   normals_.clear();
   intensity_.clear();
   tree_.reset();
+  normals_oriented_ = true;
 }
 
 void VoxelMap::insert(const ScanPoints& scan, const std::optional<Eigen::Vector3d>& viewpoint) {
+  if (!viewpoint) normals_oriented_ = false;
   std::vector<uint32_t> touched;
   touched.reserve(scan.size());
   std::vector<char> was_touched(points_.size(), 0);

@@ -73,7 +73,9 @@ TEST_P(RecoversKnownTransform, ScanToModel) {
   const auto world = locd::test::two_rooms();
   const locd::sim::Scanner3D scanner(locd::test::coarse_scanner());
   ie::VoxelMap model(0.1);
-  model.insert(locd::test::scan_in_map(world, scanner, Pose2(2.5, 1.5, 0.0).to_isometry(), 0.1, 1));
+  const Eigen::Isometry3d model_pose = Pose2(2.5, 1.5, 0.0).to_isometry();
+  model.insert(locd::test::scan_in_map(world, scanner, model_pose, 0.1, 1),
+               (model_pose * scanner.sensor_in_base()).translation());
   const Eigen::Isometry3d truth = Pose2(3.3, 2.0, 0.35).to_isometry();
   const ie::ScanPoints data = locd::test::scan_in_map(world, scanner, truth, 0.25, 2);
   const ie::ScanPoints data_in_base = ie::transformed(data, truth.inverse());

@@ -30,7 +30,7 @@ struct IcpSettings {
   double kernel_scale = 0.05;                // m, final Geman-McClure scale
   double initial_kernel_scale = 0.8;         // m, first iterations' scale
   double convergence_translation = 1e-4;     // m, stop when an update moves less ...
-  double convergence_rotation = 1e-5;        // rad, ... and turns less than this
+  double convergence_rotation = 1e-4;        // rad, ... and turns less than this
 };
 
 struct RegistrationResult {

@@ -34,6 +34,8 @@ class VoxelMap {
   const std::vector<Eigen::Vector3d>& normals() const { return normals_; }  // unit, facing the scanners; zero when undefined
   const std::vector<float>& intensity() const { return intensity_; }       // NaN where no intensity came
   bool has_intensity(size_t i) const { return intensity_count_[i] > 0; }
+  // True when every insert came with its viewpoint, so normals face the scanners.
+  bool normals_face_scanners() const { return normals_oriented_; }
 
   // Nearest centroid to q: false when the map is empty.
   bool nearest(const Eigen::Vector3d& q, size_t& index, double& distance2) const;
@@ -57,6 +59,7 @@ class VoxelMap {
   std::vector<Eigen::Vector3d> normals_;
   std::vector<float> intensity_;
   std::unique_ptr<KdTree> tree_;
+  bool normals_oriented_ = true;
 };
 
 }  // namespace locd::icp_explorer
