@@ -46,7 +46,7 @@ struct ParticleFilterConfig {
   bool recovery = true;
   double alpha_slow = 0.001;
   double alpha_fast = 0.1;
-  double min_injection_probability = 0.5;  // inject only when 1 - w_fast / w_slow reaches this
+  double min_injection_probability = 0.3;  // inject only when 1 - w_fast / w_slow reaches this
   double ambiguous_injection = 0.2;        // share injected after a (re)start until a cluster holds half the weight
   double proposal_position_stddev = 0.05;  // m, noise on poses drawn from detections
   double proposal_heading_stddev = 0.02;   // rad
