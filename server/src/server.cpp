@@ -33,6 +33,7 @@ PluginContext Server::context_for(const std::string& robot_id) {
   context.robot_id = robot_id;
   context.limits = config_.limits;
   context.maps = MapResolver(config_.map_directories);
+  context.output_directory = config_.output_directory;
   Logger* logger = &logger_;
   context.log = [logger, robot_id](LogLevel level, const std::string& message) { logger->log(level, robot_id, message); };
   return context;

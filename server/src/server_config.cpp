@@ -83,7 +83,7 @@ std::string default_server_id() {
 ServerConfig ServerConfig::parse(const std::string& yaml_text, const std::string& source_name,
                                  const fs::path& base_directory) {
   const Params root = Params::parse(yaml_text, source_name);
-  root.expect_only({"server_id", "domain_id", "plugin_directories", "map_directories", "workers",
+  root.expect_only({"server_id", "domain_id", "plugin_directories", "map_directories", "output_directory", "workers",
                     "queue_depth", "max_sessions", "status_period_s", "limits", "log_level", "sessions"});
   ServerConfig c;
   c.server_id = root.text("server_id", default_server_id());
@@ -93,6 +93,12 @@ ServerConfig ServerConfig::parse(const std::string& yaml_text, const std::string
   c.domain_id = static_cast<int>(root.integer("domain_id", 0, 0, 232));
   c.plugin_directories = directories(root, "plugin_directories", base_directory);
   c.map_directories = directories(root, "map_directories", base_directory);
+  if (root.has("output_directory")) {
+    const fs::path dir = base_directory / root.text("output_directory", "");
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) root.fail("output_directory", "= '" + dir.string() + "' is not an existing directory");
+    c.output_directory = fs::canonical(dir, ec);
+  }
   c.workers = static_cast<int>(root.integer("workers", 2, 1, 64));
   c.queue_depth = static_cast<int>(root.integer("queue_depth", 64, 1, 10000));
   c.max_sessions = static_cast<size_t>(root.integer("max_sessions", 256, 1, 100000));

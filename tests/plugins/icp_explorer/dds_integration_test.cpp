@@ -43,20 +43,19 @@ struct Seen {
   bool running = false;
 };
 
-std::string plugin_config(const fs::path& save_directory) {
-  return R"(plugin: icp_explorer
+const std::string kPluginConfig = R"(plugin: icp_explorer
 params:
   max_points: 50000
   rejection: {max_range: 15.0}
   exploration: {origin: [-0.5, -0.5], size: [11.0, 5.0], rays: 60, candidate_stride: 3, done_threshold: 2.0}
-  map_output: {publish_every_scans: 1, publish_voxel_size: 0.3, save_directory: )" +
-         save_directory.string() + "}\n";
-}
+  map_output: {publish_every_scans: 1, publish_voxel_size: 0.3}
+)";
 
 TEST(IcpExplorerOverDds, RegistersScansPublishesMapAndGoalAndRejectsABadCloud) {
   const fs::path dir = fs::temp_directory_path() / ("icp_explorer_dds_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  fs::create_directories(dir / "maps");
   std::ofstream(dir / "locd.yaml") << "server_id: icp-explorer-test\n"
+                                   << "output_directory: maps\n"
                                    << "domain_id: " << kDomain << "\n"
                                    << "plugin_directories: [" << locd::test::plugin_dir() << "]\n"
                                    << "map_directories: [" << locd::test::source_dir() << "/config/maps]\n"
@@ -116,8 +115,7 @@ TEST(IcpExplorerOverDds, RegistersScansPublishesMapAndGoalAndRejectsABadCloud) {
   request->request_id = 1;
   request->action = locd_msg_SESSION_START;
   locd::dds::copy_string(request->plugin, "icp_explorer");
-  fs::create_directories(dir / "maps");
-  locd::dds::copy_string(request->config_yaml, plugin_config(dir / "maps"));
+  locd::dds::copy_string(request->config_yaml, kPluginConfig);
   requests.write(*request);
   {
     std::unique_lock<std::mutex> lock(seen.mutex);

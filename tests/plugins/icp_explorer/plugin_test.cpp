@@ -48,9 +48,11 @@ struct Logged {
   std::vector<std::string> warnings;
 };
 
-locd::LocalizerPtr configured(const std::string& text, Logged* logged = nullptr, size_t max_cloud_points = 1'000'000) {
+locd::LocalizerPtr configured(const std::string& text, Logged* logged = nullptr, size_t max_cloud_points = 1'000'000,
+                              const fs::path& output_directory = {}) {
   auto localizer = library()->create();
   locd::PluginContext context;
+  context.output_directory = output_directory;
   context.robot_id = "robot/7";
   context.limits.max_cloud_points = max_cloud_points;
   if (logged)
@@ -108,9 +110,9 @@ TEST(IcpExplorerPlugin, ConfigErrorsNameKeyValueAndAllowed) {
   EXPECT_NE(typo.find("scan_voxel"), std::string::npos) << typo;
   const std::string too_many = message_of([&] { plugin->configure(context, params("max_points: 2000000")); });
   EXPECT_NE(too_many.find("max_points"), std::string::npos) << too_many;
-  const std::string relative =
-      message_of([&] { plugin->configure(context, params("map_output: {save_directory: ../maps}")); });
-  EXPECT_NE(relative.find("save_directory"), std::string::npos) << relative;
+  // A directory to write into is the server's to give (PluginContext::output_directory), never the config's.
+  const std::string path = message_of([&] { plugin->configure(context, params("map_output: {save_directory: /tmp}")); });
+  EXPECT_NE(path.find("unknown parameter 'icp_explorer.map_output.save_directory'"), std::string::npos) << path;
   EXPECT_THROW(plugin->configure(context, params("exploration: {size: [100000, 100000]}")), locd::ConfigError);
 }
 
@@ -184,12 +186,12 @@ TEST(IcpExplorerPlugin, SavesTheMapOnlyIntoTheConfiguredDirectory) {
   auto disabled = configured(kToyParams);
   disabled->update(toy_scan(locd::Pose2(3.0, 1.2, 0.0), 6));
   const std::string off = message_of([&] { disabled->save_map(); });
-  EXPECT_NE(off.find("save_directory"), std::string::npos) << off;
+  EXPECT_NE(off.find("output_directory in the server config"), std::string::npos) << off;
 
   const fs::path dir = fs::temp_directory_path() / ("icp_explorer_save_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   for (const std::string format : {"pcd", "ply"}) {
-    auto plugin = configured(toy_params(", save_directory: " + dir.string() + ", save_format: " + format));
+    auto plugin = configured(toy_params(", save_format: " + format), nullptr, 1'000'000, fs::canonical(dir));
     EXPECT_THROW(plugin->save_map(), locd::InputError) << "nothing scanned yet";
     locd::PoseEstimate start;
     start.pose = locd::Pose2(3.0, 1.2, 0.0).to_isometry();

@@ -101,17 +101,9 @@ IcpExplorerConfig parse_config(const Params& p, const Limits& limits, MapOutputS
   x.done_threshold = e.number("done_threshold", x.done_threshold, Range::non_negative());
 
   const Params out = p.child("map_output");
-  out.expect_only({"publish_every_scans", "publish_voxel_size", "save_directory", "save_format"});
+  out.expect_only({"publish_every_scans", "publish_voxel_size", "save_format"});
   map_output.publish_every_scans = static_cast<int>(out.integer("publish_every_scans", map_output.publish_every_scans, 0, 100000));
   map_output.publish_voxel_size = out.number("publish_voxel_size", map_output.publish_voxel_size, Range::closed(0.01, 10.0));
-  const std::string directory = out.text("save_directory", "");
-  if (!directory.empty()) {
-    const std::filesystem::path dir(directory);
-    std::error_code ec;
-    if (!dir.is_absolute() || !std::filesystem::is_directory(dir, ec))
-      out.fail("save_directory", "must be an absolute path to an existing directory");
-    map_output.save_directory = std::filesystem::canonical(dir, ec);
-  }
   map_output.save_format = out.text("save_format", "pcd", {"pcd", "ply"}) == "pcd" ? MapFileFormat::kPcd : MapFileFormat::kPly;
   return c;
 }
@@ -209,11 +201,11 @@ UpdateResult IcpExplorerLocalizer::update(const Measurement& measurement) {
 
 std::string IcpExplorerLocalizer::save_map() {
   if (!explorer_) throw InputError("icp_explorer: save_map before configure");
-  if (map_output_.save_directory.empty())
-    throw InputError("icp_explorer: map saving is disabled; set icp_explorer.map_output.save_directory in the config");
+  if (context_.output_directory.empty())
+    throw InputError("icp_explorer: map saving is disabled on this server; set output_directory in the server config");
   if (explorer_->model().empty()) throw InputError("icp_explorer: the map is empty (no scan yet)");
   const auto file =
-      generated_map_file(map_output_.save_directory, context_.robot_id, explorer_->scans(), map_output_.save_format);
+      generated_map_file(context_.output_directory, context_.robot_id, explorer_->scans(), map_output_.save_format);
   const ScanPoints map = explorer_->model().downsampled(explorer_->model().voxel_size());
   try {
     if (map_output_.save_format == MapFileFormat::kPcd)

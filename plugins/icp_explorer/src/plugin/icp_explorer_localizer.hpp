@@ -17,7 +17,6 @@ namespace locd::icp_explorer {
 struct MapOutputSettings {
   int publish_every_scans = 1;        // 0 = never publish the map
   double publish_voxel_size = 0.2;    // m
-  std::filesystem::path save_directory;  // empty: saving disabled
   MapFileFormat save_format = MapFileFormat::kPcd;
 };
 

@@ -53,6 +53,9 @@ struct PluginContext {
   std::string robot_id;
   Limits limits;
   MapResolver maps;
+  // Where the plugin may write files (saved maps), from the server's own config
+  // (`output_directory`); empty = writing disabled. Never taken from a remote request.
+  std::filesystem::path output_directory;
   std::function<void(LogLevel, const std::string&)> log = [](LogLevel, const std::string&) {};
 };
 

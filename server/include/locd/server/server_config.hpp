@@ -27,6 +27,7 @@ struct ServerConfig {
   int domain_id = 0;
   std::vector<std::filesystem::path> plugin_directories;
   std::vector<std::filesystem::path> map_directories;
+  std::filesystem::path output_directory;  // where plugins may write (saved maps); empty = nowhere
   int workers = 2;
   int queue_depth = 64;
   size_t max_sessions = 256;  // robots served at once; requests beyond are refused
