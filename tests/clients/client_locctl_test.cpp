@@ -221,14 +221,15 @@ TEST(Locctl, UseStatusPluginsAndStopAgainstTheServer) {
   const LocctlRun plugins = locctl(dir, {"--domain", domain, "plugins"});
   EXPECT_EQ(plugins.exit_code, 0) << plugins.output;
   EXPECT_TRUE(contains(plugins.output, "server " + server.server_id() + ": ")) << plugins.output;
-  EXPECT_TRUE(std::regex_search(plugins.output, std::regex("\n  feature_ekf \\S+  consumes odometry,scan  ")))
+  EXPECT_TRUE(std::regex_search(plugins.output, std::regex("\n  feature_ekf \\S+  consumes odometry,imu,scan,detections  ")))
       << plugins.output;
   const LocctlRun plugins_json = locctl(dir, {"--domain", domain, "--json", "plugins"});
   EXPECT_EQ(plugins_json.exit_code, 0) << plugins_json.output;
   EXPECT_TRUE(contains(plugins_json.output, "{\"command\":\"plugins\",\"ok\":true,\"servers\":[{\"server\":\"" +
-                                                server.server_id() + "\",\"plugins\":[{\"name\":\"feature_ekf\""))
+                                                server.server_id() + "\",\"plugins\":[")) << plugins_json.output;
+  EXPECT_TRUE(contains(plugins_json.output, "{\"name\":\"feature_ekf\""))
       << plugins_json.output;
-  EXPECT_TRUE(contains(plugins_json.output, "\"consumes\":[\"odometry\",\"scan\"]")) << plugins_json.output;
+  EXPECT_TRUE(contains(plugins_json.output, "\"consumes\":[\"odometry\",\"imu\",\"scan\",\"detections\"]")) << plugins_json.output;
 
   const LocctlRun use = locctl(dir, {"--domain", domain, "use", "robot44", config.string()});
   EXPECT_EQ(use.exit_code, 0) << use.output << server.log();
