@@ -9,43 +9,13 @@
 #include <regex>
 #include <thread>
 
-#include "child_process.hpp"
 #include "locd/client/client.hpp"
-#include "test_env.hpp"
+#include "test_server.hpp"
 
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
 namespace {
-
-// A locd child process serving one domain from a temp config.
-class Locd {
- public:
-  explicit Locd(int domain) {
-    dir_ = fs::temp_directory_path() / ("locd_end_to_end_" + std::to_string(::getpid()) + "_" + std::to_string(domain));
-    fs::create_directories(dir_);
-    std::ofstream(dir_ / "locd.yaml") << "server_id: end-to-end-" << domain << "\n"
-                                      << "domain_id: " << domain << "\n"
-                                      << "plugin_directories: [" << locd::test::plugin_dir() << "]\n"
-                                      << "map_directories: [" << locd::test::source_dir() << "/config/maps]\n"
-                                      << "status_period_s: 0.5\n";
-    process_ = std::make_unique<locd::test::ChildProcess>(
-        locd::test::binary_dir() + "/bin/locd", std::vector<std::string>{"--config", (dir_ / "locd.yaml").string()},
-        (dir_ / "locd.log").string());
-  }
-  ~Locd() {
-    process_->signal(SIGTERM);
-    process_->wait(10s);
-    std::error_code ec;
-    if (!::testing::Test::HasFailure()) fs::remove_all(dir_, ec);
-  }
-  const fs::path& dir() const { return dir_; }
-  locd::test::ChildProcess& process() { return *process_; }
-
- private:
-  fs::path dir_;
-  std::unique_ptr<locd::test::ChildProcess> process_;
-};
 
 std::unique_ptr<locd::test::ChildProcess> start_locsim_live(const fs::path& dir, int domain, double duration_s) {
   return std::make_unique<locd::test::ChildProcess>(
@@ -66,7 +36,7 @@ double json_field(const std::string& output, const std::string& key) {
 
 TEST(EndToEnd, CorridorRobotIsLocalizedOverDds) {
   constexpr int kDomain = 10;
-  Locd locd(kDomain);
+  locd::test::TestServer locd("end_to_end", kDomain);
   auto locsim = start_locsim_live(locd.dir(), kDomain, 20.0);
   ASSERT_EQ(locsim->wait(120s), 0) << locsim->output() << "\nlocd log:\n" << locd.process().output();
   const std::string out = locsim->output();
@@ -79,7 +49,7 @@ TEST(EndToEnd, CorridorRobotIsLocalizedOverDds) {
 
 TEST(EndToEnd, SwitchingPluginMidStreamHandsOverThePose) {
   constexpr int kDomain = 11;
-  Locd locd(kDomain);
+  locd::test::TestServer locd("end_to_end", kDomain);
   auto locsim = start_locsim_live(locd.dir(), kDomain, 16.0);
 
   // A second program (an operator, another robot) watches the corridor robot and switches its

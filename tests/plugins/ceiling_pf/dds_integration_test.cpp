@@ -11,7 +11,7 @@
 #include <mutex>
 #include <thread>
 
-#include "child_process.hpp"
+#include "test_server.hpp"
 #include "locd/dds/convert.hpp"
 #include "locd/dds/topics.hpp"
 #include "locd/sim_ceiling_pf/hall_drive.hpp"
@@ -44,15 +44,8 @@ std::string read(const fs::path& f) {
 }
 
 TEST(CeilingPfOverDds, TracksFromCameraFramesAndRejectsABadFrame) {
-  const fs::path dir = fs::temp_directory_path() / ("ceiling_pf_dds_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  std::ofstream(dir / "locd.yaml") << "server_id: ceiling-pf-test\n"
-                                   << "domain_id: " << kDomain << "\n"
-                                   << "plugin_directories: [" << locd::test::plugin_dir() << "]\n"
-                                   << "map_directories: [" << locd::test::source_dir() << "/config/maps]\n"
-                                   << "status_period_s: 0.2\nqueue_depth: 1000\n";
-  locd::test::ChildProcess locd(locd::test::binary_dir() + "/bin/locd",
-                                {"--config", (dir / "locd.yaml").string()}, (dir / "locd.log").string());
+  locd::test::TestServer server("ceiling_pf_dds", kDomain);
+  locd::test::ChildProcess& locd = server.process();
 
   Seen seen;
   locd::dds::Participant participant(kDomain);
@@ -164,9 +157,6 @@ TEST(CeilingPfOverDds, TracksFromCameraFramesAndRejectsABadFrame) {
   EXPECT_LT(std::hypot(seen.poses.back().second.x - truth.rbegin()->second.x,
                        seen.poses.back().second.y - truth.rbegin()->second.y), 0.1);
   lock.unlock();
-  locd.signal(SIGTERM);
-  locd.wait(10s);
-  fs::remove_all(dir);
 }
 
 }  // namespace

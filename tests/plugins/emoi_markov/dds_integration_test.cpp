@@ -12,7 +12,7 @@
 #include <mutex>
 #include <thread>
 
-#include "child_process.hpp"
+#include "test_server.hpp"
 #include "locd/dds/convert.hpp"
 #include "locd/dds/topics.hpp"
 #include "locd/sim_emoi_markov/four_positions.hpp"
@@ -43,8 +43,10 @@ struct Seen {
 };
 
 TEST(EmoiMarkovOverDds, LocalizesFromScansAndRejectsABadScan) {
-  const fs::path dir = fs::temp_directory_path() / ("emoi_markov_dds_" + std::to_string(::getpid()));
-  fs::create_directories(dir / "maps");
+  // Maps come from the server folder's own maps/ (a relative map directory resolves there).
+  locd::test::TestServer server("emoi_markov_dds", kDomain, {"maps", "", 2000});
+  locd::test::ChildProcess& locd = server.process();
+  const fs::path& dir = server.dir();
   sim::FourPositionsScenario scenario;
   scenario.world.size_x_m = scenario.world.size_y_m = 60.0;
   scenario.world.resolution_m = 0.2;
@@ -59,13 +61,6 @@ TEST(EmoiMarkovOverDds, LocalizesFromScansAndRejectsABadScan) {
   const auto run = sim::build_run(scenario, 11);
   locd::emoi::write_dsm_geotiff(run.dsm, dir / "maps" / "small_world.tif");
 
-  std::ofstream(dir / "locd.yaml") << "server_id: emoi-markov-test\n"
-                                   << "domain_id: " << kDomain << "\n"
-                                   << "plugin_directories: [" << locd::test::plugin_dir() << "]\n"
-                                   << "map_directories: [" << (dir / "maps").string() << "]\n"
-                                   << "status_period_s: 0.2\nqueue_depth: 2000\n";
-  locd::test::ChildProcess locd(locd::test::binary_dir() + "/bin/locd", {"--config", (dir / "locd.yaml").string()},
-                                (dir / "locd.log").string());
 
   Seen seen;
   locd::dds::Participant participant(kDomain);
@@ -172,9 +167,6 @@ TEST(EmoiMarkovOverDds, LocalizesFromScansAndRejectsABadScan) {
   EXPECT_EQ(seen.diagnostics_plugin, "emoi_markov");
   for (const auto& [stamp, position] : seen.poses) EXPECT_TRUE(position.allFinite());
   lock.unlock();
-  locd.signal(SIGTERM);
-  locd.wait(10s);
-  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -13,7 +13,7 @@
 #include <mutex>
 #include <thread>
 
-#include "child_process.hpp"
+#include "test_server.hpp"
 #include "locd/dds/convert.hpp"
 #include "locd/dds/topics.hpp"
 #include "locd/sim_feature_ekf/road_sign_drive.hpp"
@@ -52,16 +52,8 @@ void replace_line(std::string& text, const std::string& key, const std::string& 
 }
 
 TEST(FeatureEkfLandmarksOverDds, TracksARoadSignDriveAndRejectsAnUnknownClass) {
-  const fs::path dir = fs::temp_directory_path() / ("feature_ekf_dds_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  std::ofstream(dir / "locd.yaml") << "server_id: feature-ekf-landmarks-test\n"
-                                   << "domain_id: " << kDomain << "\n"
-                                   << "plugin_directories: [" << locd::test::plugin_dir() << "]\n"
-                                   << "map_directories: [" << locd::test::source_dir() << "/config/maps]\n"
-                                   << "status_period_s: 0.2\nqueue_depth: 1000\n";
-  locd::test::ChildProcess locd(locd::test::binary_dir() + "/bin/locd", {"--config", (dir / "locd.yaml").string()},
-                                (dir / "locd.log").string());
-
+  locd::test::TestServer server("feature_ekf_landmarks_dds", kDomain);
+  locd::test::ChildProcess& locd = server.process();
   Seen seen;
   locd::dds::Participant participant(kDomain);
   locd::dds::Writer<locd_msg_SessionRequest> requests(participant, locd::topics::kSessionRequest, QosProfile::kState);
@@ -179,9 +171,6 @@ TEST(FeatureEkfLandmarksOverDds, TracksARoadSignDriveAndRejectsAnUnknownClass) {
   EXPECT_GT(compared, 30u);
   EXPECT_LT(max_error, 15.0);
   lock.unlock();
-  locd.signal(SIGTERM);
-  locd.wait(10s);
-  fs::remove_all(dir);
 }
 
 }  // namespace

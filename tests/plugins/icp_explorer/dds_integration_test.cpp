@@ -14,7 +14,7 @@
 #include <random>
 #include <thread>
 
-#include "child_process.hpp"
+#include "test_server.hpp"
 #include "locd/dds/convert.hpp"
 #include "locd/dds/topics.hpp"
 #include "test_env.hpp"
@@ -52,17 +52,9 @@ params:
 )";
 
 TEST(IcpExplorerOverDds, RegistersScansPublishesMapAndGoalAndRejectsABadCloud) {
-  const fs::path dir = fs::temp_directory_path() / ("icp_explorer_dds_" + std::to_string(::getpid()));
-  fs::create_directories(dir / "maps");
-  std::ofstream(dir / "locd.yaml") << "server_id: icp-explorer-test\n"
-                                   << "output_directory: maps\n"
-                                   << "domain_id: " << kDomain << "\n"
-                                   << "plugin_directories: [" << locd::test::plugin_dir() << "]\n"
-                                   << "map_directories: [" << locd::test::source_dir() << "/config/maps]\n"
-                                   << "status_period_s: 0.2\nqueue_depth: 64\n";
-  locd::test::ChildProcess locd(locd::test::binary_dir() + "/bin/locd", {"--config", (dir / "locd.yaml").string()},
-                                (dir / "locd.log").string());
-
+  locd::test::TestServer server("icp_explorer_dds", kDomain, {"", "output_directory: maps\n", 64});
+  locd::test::ChildProcess& locd = server.process();
+  const fs::path& dir = server.dir();
   Seen seen;
   locd::dds::Participant participant(kDomain);
   locd::dds::Writer<locd_msg_SessionRequest> requests(participant, locd::topics::kSessionRequest, QosProfile::kState);
@@ -197,9 +189,6 @@ TEST(IcpExplorerOverDds, RegistersScansPublishesMapAndGoalAndRejectsABadCloud) {
   for (const auto& entry : fs::directory_iterator(dir / "maps")) files += entry.path().extension() == ".pcd";
   EXPECT_EQ(files, 1u);
   lock.unlock();
-  locd.signal(SIGTERM);
-  locd.wait(10s);
-  fs::remove_all(dir);
 }
 
 }  // namespace
