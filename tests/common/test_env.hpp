@@ -16,6 +16,8 @@ inline std::string plugin_dir() { return env_or("LOCD_PLUGIN_DIR", "build/plugin
 
 // Domain ids: every DDS test names its own constant from this table, so tests run in parallel
 // without seeing each other's data. Keep them unique across the whole tree.
-//   10-29 tests/integration, 30-49 tests/clients, 50-69 tests/server, 70-79 tests/plugins
-//   100-119 bench, 0 demo
+//   10-19 tests/integration end to end      30-39 locsim            40-49 client library, locctl
+//   50-69 server (bad input, CLI)           80-84 ceiling_pf        85-89 emoi_markov
+//   90-94 icp_explorer                      95-99 feature_ekf landmarks
+//   0 the demo (LOCD_DOMAIN overrides)
 }  // namespace locd::test
