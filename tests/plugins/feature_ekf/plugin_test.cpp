@@ -5,6 +5,7 @@
 #include <fstream>
 #include <random>
 
+#include "locd/sdk/plugin_config.hpp"
 #include "locd/sdk/plugin_loader.hpp"
 #include "synthetic_scan.hpp"
 #include "test_env.hpp"
@@ -34,8 +35,8 @@ class FeatureEkfPlugin : public ::testing::Test {
   void TearDown() override { std::filesystem::remove_all(map_dir_); }
 
   LocalizerPtr configured(const std::string& params_yaml) {
-    const Params config = Params::parse("plugin: feature_ekf\nparams:\n" + params_yaml, "test config");
-    return create_configured(catalog_, "feature_ekf", context_, Params(config.node()["params"], "feature_ekf"));
+    const PluginConfig config = split_plugin_config("plugin: feature_ekf\nparams:\n" + params_yaml, "test config");
+    return create_configured(catalog_, config.plugin, context_, config.params);
   }
 
   std::string config_error(const std::string& params_yaml) {
