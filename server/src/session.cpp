@@ -52,6 +52,33 @@ void Session::log(LogLevel level, const std::string& message) const {
   if (log_) log_(level, message);
 }
 
+void Session::log_rejection(const std::string& error) {
+  std::string line;
+  {
+    std::lock_guard<std::mutex> lock(rejection_log_mutex_);
+    const auto now = std::chrono::steady_clock::now();
+    if (now - rejection_window_start_ >= std::chrono::seconds(1)) {
+      rejection_window_start_ = now;
+      rejection_lines_in_window_ = 0;
+    }
+    if (rejection_lines_in_window_ >= kRejectionLinesPerSecond) {
+      ++rejections_not_logged_;
+      return;
+    }
+    ++rejection_lines_in_window_;
+    line = "rejected: " + error;
+    if (rejections_not_logged_ > 0) {
+      line += " (" + std::to_string(rejections_not_logged_) +
+              " earlier rejections were counted on the status topic but not logged)";
+      rejections_not_logged_ = 0;
+    }
+    if (rejection_lines_in_window_ == kRejectionLinesPerSecond) {
+      line += " (further rejections this second are counted, not logged)";
+    }
+  }
+  log(LogLevel::kWarning, line);
+}
+
 bool Session::push(Measurement measurement) {
   const size_t kind_index = measurement.index();
   const int64_t stamp = header_of(measurement).stamp_ns;
@@ -82,7 +109,7 @@ bool Session::push(Measurement measurement) {
     }
   }
   if (!error.empty()) {
-    log(LogLevel::kWarning, "rejected: " + error);
+    log_rejection(error);
     publish_status_later();
   } else if (dropped) {
     log(LogLevel::kDebug, "queue full (" + std::to_string(queue_depth_) + "): dropped the oldest message");
@@ -97,13 +124,17 @@ void Session::reject_input(const std::string& error) {
     ++counters_.rejected;
     last_error_ = error;
   }
-  log(LogLevel::kWarning, "rejected: " + error);
+  log_rejection(error);
   publish_status_later();
 }
 
 void Session::publish_status_later() {
+  if (status_pending_.exchange(true)) return;
   auto self = shared_from_this();
-  pool_.post([self] { self->publish_status(); });
+  pool_.post([self] {
+    self->status_pending_ = false;  // before reading: a later rejection schedules another status
+    self->publish_status();
+  });
 }
 
 void Session::set_pose(const PoseEstimate& pose) {
@@ -213,6 +244,7 @@ bool Session::abandon_if_idle(uint64_t generation) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (generation != latest_generation_ || localizer_) return false;
   stopped_ = true;
+  counters_.dropped += queue_.size();
   queue_.clear();
   return true;
 }
@@ -255,6 +287,7 @@ void Session::stop(uint64_t request_id, const std::string& message) {
     std::lock_guard<std::mutex> lock(mutex_);
     stopped_ = true;
     ++latest_generation_;  // a plugin still being configured is never installed
+    counters_.dropped += queue_.size();
     queue_.clear();
   }
   post_control([this, self, request_id, message] {
@@ -368,7 +401,7 @@ void Session::process(Measurement& measurement) {
       ++counters_.rejected;
       last_error_ = error;
     }
-    log(LogLevel::kWarning, "rejected: " + error);
+    log_rejection(error);
     publish_status();
     return;
   }

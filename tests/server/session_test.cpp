@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cmath>
 #include <thread>
 
 #include "locd/server/session.hpp"
@@ -89,7 +90,18 @@ class SessionTest : public ::testing::Test {
  protected:
   std::shared_ptr<Session> make(size_t depth, size_t threads = 2) {
     pool_ = std::make_unique<WorkerPool>(threads);
-    return std::make_shared<Session>("robot", *pool_, sink_, depth, nullptr);
+    return std::make_shared<Session>("robot", *pool_, sink_, depth, [this](LogLevel level, const std::string& line) {
+      std::lock_guard<std::mutex> lock(log_mutex_);
+      log_.emplace_back(level, line);
+    });
+  }
+  std::vector<std::string> warnings() {
+    std::lock_guard<std::mutex> lock(log_mutex_);
+    std::vector<std::string> lines;
+    for (const auto& [level, line] : log_) {
+      if (level == LogLevel::kWarning) lines.push_back(line);
+    }
+    return lines;
   }
   // Installs a plugin and waits until the session reports it running.
   void install(Session& session, LocalizerPtr localizer, const std::string& plugin, uint64_t request_id) {
@@ -112,6 +124,8 @@ class SessionTest : public ::testing::Test {
   }
   RecordingSink sink_;
   std::unique_ptr<WorkerPool> pool_;
+  std::mutex log_mutex_;
+  std::vector<std::pair<LogLevel, std::string>> log_;
 };
 
 TEST_F(SessionTest, MeasurementsRunInStampOrderAcrossKinds) {
@@ -284,6 +298,54 @@ TEST_F(SessionTest, ANewRequestAcceptsARestartedRobotsClock) {
   ASSERT_TRUE(wait_used(*session, 2));
   EXPECT_EQ(session->status().counters.rejected, 0u);
   EXPECT_EQ(session->status().counters.used, 2u);
+}
+
+}  // namespace
+
+namespace {
+
+TEST_F(SessionTest, ARejectionFloodIsCountedInFullAndLoggedWithinItsBudget) {
+  auto session = make(16);
+  auto record = std::make_shared<Record>();
+  install(*session, recording(record), "recording", 1);
+  session->push(odometry(1000));
+  constexpr int kBad = 200;
+  const auto start = std::chrono::steady_clock::now();
+  for (int i = 0; i < kBad; ++i) session->push(odometry(1));  // stamp going backwards
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_TRUE(sink_.wait_status("robot", [](const SessionStatusReport& s) { return s.counters.rejected == kBad; }));
+  const auto lines = warnings();
+  // The budget per started one-second window, however long the flood took on this machine.
+  const auto windows = static_cast<size_t>(std::ceil(seconds)) + 1;
+  ASSERT_GE(lines.size(), static_cast<size_t>(Session::kRejectionLinesPerSecond));
+  EXPECT_LE(lines.size(), windows * Session::kRejectionLinesPerSecond);
+  EXPECT_LT(lines.size(), static_cast<size_t>(kBad));
+  EXPECT_NE(lines[0].find("stamp going backwards on locd/odometry: 1 < 1000 ns"), std::string::npos) << lines[0];
+  EXPECT_NE(lines[Session::kRejectionLinesPerSecond - 1].find("further rejections this second are counted, not logged"),
+            std::string::npos);
+}
+
+TEST_F(SessionTest, MessagesQueuedForAFailedFirstRequestAreCountedAsDropped) {
+  auto session = make(16);
+  for (int64_t stamp = 1; stamp <= 3; ++stamp) session->push(odometry(stamp));
+  const uint64_t generation = session->begin_request(1);
+  EXPECT_FALSE(session->fail_request(generation, 1, "plugin 'nope' not found"));
+  EXPECT_TRUE(session->abandon_if_idle(generation));
+  const auto status = session->status();
+  EXPECT_EQ(status.counters.received, 3u);
+  EXPECT_EQ(status.counters.dropped, 3u);
+  EXPECT_EQ(status.state, SessionState::kError);
+}
+
+TEST_F(SessionTest, StopCountsTheDiscardedQueueAsDropped) {
+  auto session = make(16);
+  for (int64_t stamp = 1; stamp <= 5; ++stamp) session->push(odometry(stamp));  // plugin still starting
+  session->stop(2, "stopped by request 2");
+  ASSERT_TRUE(sink_.wait_status("robot", [](const auto& s) { return s.state == SessionState::kStopped; }));
+  const auto c = session->status().counters;
+  EXPECT_EQ(c.received, 5u);
+  EXPECT_EQ(c.dropped, 5u);
+  EXPECT_EQ(c.used, 0u);
 }
 
 }  // namespace

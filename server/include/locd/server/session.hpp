@@ -8,9 +8,13 @@
 //   pose, stop) goes through the same strand, ahead of queued measurements.
 // - A plugin switch is configured elsewhere (on the pool) and only installed here; the new
 //   plugin gets the last published pose through set_pose.
+// - Rejections are counted and named on the status topic one by one; the log gets at most
+//   kRejectionLinesPerSecond lines per session per second, and says how many it left out.
 #pragma once
 
 #include <array>
+#include <atomic>
+#include <chrono>
 #include <deque>
 #include <functional>
 #include <memory>
@@ -31,6 +35,8 @@ const char* topic_of(MeasurementKind kind);
 
 class Session : public std::enable_shared_from_this<Session> {
  public:
+  static constexpr int kRejectionLinesPerSecond = 5;
+
   Session(std::string robot_id, WorkerPool& pool, OutputSink& sink, size_t queue_depth, SessionLog log);
 
   const std::string& robot_id() const { return robot_id_; }
@@ -60,12 +66,14 @@ class Session : public std::enable_shared_from_this<Session> {
   // After a failed request: if `generation` is still the newest and no plugin runs, the session
   // is marked stopped (its router then forgets it) and true is returned.
   bool abandon_if_idle(uint64_t generation);
-  // Ends the session: the plugin is released on the strand, queued messages are discarded.
+  // Ends the session: the plugin is released on the strand, queued messages are discarded
+  // (and counted as dropped).
   void stop(uint64_t request_id, const std::string& message);
 
   SessionStatusReport status() const;
   void publish_status() const;
   // From a listener thread: the status is written on the pool, never blocking the listener.
+  // Calls made while one is pending share it (a flood of bad input is one status, not one each).
   void publish_status_later();
 
  private:
@@ -74,6 +82,8 @@ class Session : public std::enable_shared_from_this<Session> {
   void drain();
   void process(Measurement& measurement);
   void log(LogLevel level, const std::string& message) const;
+  // A rejected message: logged within the per-second budget, else counted as not logged.
+  void log_rejection(const std::string& error);
 
   const std::string robot_id_;
   WorkerPool& pool_;
@@ -97,6 +107,12 @@ class Session : public std::enable_shared_from_this<Session> {
   std::optional<PoseEstimate> last_pose_;
   uint64_t latest_generation_ = 0;
   bool stopped_ = false;
+
+  std::atomic<bool> status_pending_{false};
+  std::mutex rejection_log_mutex_;
+  std::chrono::steady_clock::time_point rejection_window_start_{};
+  int rejection_lines_in_window_ = 0;
+  uint64_t rejections_not_logged_ = 0;
 };
 
 }  // namespace locd::server
