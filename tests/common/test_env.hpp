@@ -2,6 +2,9 @@
 #pragma once
 
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 namespace locd::test {
@@ -13,6 +16,12 @@ inline std::string env_or(const char* name, const char* fallback) {
 inline std::string source_dir() { return env_or("LOCD_SOURCE_DIR", "."); }
 inline std::string binary_dir() { return env_or("LOCD_BINARY_DIR", "build"); }
 inline std::string plugin_dir() { return env_or("LOCD_PLUGIN_DIR", "build/plugins"); }
+
+// A whole text file (e.g. a shipped plugin config); empty when it cannot be read.
+inline std::string read_text(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
 
 // Domain ids: every DDS test names its own constant from this table, so tests run in parallel
 // without seeing each other's data. Keep them unique across the whole tree.

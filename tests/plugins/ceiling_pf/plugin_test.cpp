@@ -21,11 +21,6 @@ std::shared_ptr<PluginLibrary> library() {
   return lib;
 }
 
-std::string read(const fs::path& file) {
-  std::ifstream in(file);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
 struct Fixture {
   fs::path maps = fs::temp_directory_path() / ("ceiling_pf_plugin_test_" + std::to_string(::getpid()));
   PluginContext context;
@@ -39,7 +34,7 @@ struct Fixture {
     context.maps = MapResolver({maps});
   }
   ~Fixture() { fs::remove_all(maps); }
-  std::string shipped() const { return read(fs::path(test::source_dir()) / "config/plugins/ceiling_pf.yaml"); }
+  std::string shipped() const { return test::read_text(fs::path(test::source_dir()) / "config/plugins/ceiling_pf.yaml"); }
   LocalizerPtr configured(const std::string& text) const {
     const PluginConfig pc = split_plugin_config(text, "test");
     LocalizerPtr l = library()->create();

@@ -1,0 +1,161 @@
+// The robot's end of a plugin's DDS test, in raw Cyclone DDS as a robot program in any language
+// would speak it: a participant on the test's domain, the session-request writer, and readers
+// of the robot's session status and poses. What the readers record sits under one mutex with one
+// condition variable; a test's own readers (diagnostics, grids, goals, maps) record under the same
+// lock and call notify(), so every wait is "until this predicate holds, or fail with locd's log".
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <cstring>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "child_process.hpp"
+#include "locd/dds/convert.hpp"
+#include "locd/dds/topics.hpp"
+
+namespace locd::test {
+
+// The last session status of this robot, as the robot sees it.
+struct RobotStatus {
+  bool running = false;
+  uint64_t request_id = 0;
+  bool request_ok = false;
+  uint64_t received = 0, used = 0, rejected = 0, updates = 0;
+  std::string message, last_error;
+};
+
+class RobotSide {
+ public:
+  RobotSide(int domain, std::string robot_id, ChildProcess& locd,
+            std::chrono::seconds timeout = std::chrono::seconds(30))
+      : robot_id_(std::move(robot_id)),
+        locd_(locd),
+        timeout_(timeout),
+        participant_(domain),
+        requests_(participant_, topics::kSessionRequest, dds::QosProfile::kState),
+        statuses_(participant_, topics::kSessionStatus, dds::QosProfile::kState,
+                  [this](const locd_msg_SessionStatus& m) {
+                    if (dds::to_string(m.robot_id) != robot_id_) return;
+                    std::lock_guard<std::mutex> lock(mutex_);
+                    status_.running = m.state == locd_msg_STATE_RUNNING;
+                    status_.request_id = m.request_id;
+                    status_.request_ok = m.request_ok;
+                    status_.received = m.received;
+                    status_.used = m.used;
+                    status_.rejected = m.rejected;
+                    status_.updates = m.updates;
+                    status_.message = dds::to_string(m.message);
+                    status_.last_error = dds::to_string(m.last_error);
+                    changed_.notify_all();
+                  }),
+        poses_(participant_, topics::kPose, dds::QosProfile::kPose, [this](const locd_msg_PoseEstimate& m) {
+          if (dds::to_string(m.robot_id) != robot_id_) return;
+          PoseEstimate p = dds::from_wire(m);
+          std::lock_guard<std::mutex> lock(mutex_);
+          poses_seen_.push_back(std::move(p));
+          changed_.notify_all();
+        }) {}
+
+  dds::Participant& participant() { return participant_; }
+  const std::string& robot_id() const { return robot_id_; }
+
+  // Until locd has matched the request writer, the status reader and every endpoint given (the
+  // test's own sensor writers and readers), or the timeout.
+  template <class... Endpoints>
+  ::testing::AssertionResult wait_matched(const Endpoints&... endpoints) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout_;
+    while (requests_.matched() == 0 || statuses_.matched() == 0 || ((endpoints.matched() == 0) || ...)) {
+      if (std::chrono::steady_clock::now() > deadline || !locd_.running()) {
+        return ::testing::AssertionFailure() << "locd did not come up:\n" << locd_.output();
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return ::testing::AssertionSuccess();
+  }
+
+  // Sends a start request and waits until the session runs.
+  ::testing::AssertionResult start(const std::string& plugin, const std::string& config_yaml, uint64_t request_id = 1) {
+    auto request = std::make_unique<locd_msg_SessionRequest>();
+    std::memset(request.get(), 0, sizeof(locd_msg_SessionRequest));
+    dds::copy_string(request->robot_id, robot_id_);
+    request->request_id = request_id;
+    request->action = locd_msg_SESSION_START;
+    dds::copy_string(request->plugin, plugin);
+    dds::copy_string(request->config_yaml, config_yaml);
+    requests_.write(*request);
+    std::unique_lock<std::mutex> lock(mutex_);
+    return wait(lock, [&] { return status_.running && status_.request_id == request_id; }, "session running");
+  }
+
+  // With lock() held: waits until `done` holds; the failure names `what`, the status and locd's log.
+  template <class Done>
+  ::testing::AssertionResult wait(std::unique_lock<std::mutex>& lock, Done done, const std::string& what) {
+    if (changed_.wait_for(lock, timeout_, done)) return ::testing::AssertionSuccess();
+    return ::testing::AssertionFailure() << "timed out waiting for " << what << "; poses " << poses_seen_.size()
+                                         << ", last message '" << status_.message << "', last error '"
+                                         << status_.last_error << "'\n"
+                                         << locd_.output();
+  }
+
+  // Until the robot has received a pose stamped `stamp_ns`.
+  ::testing::AssertionResult wait_pose(int64_t stamp_ns) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    return wait(
+        lock,
+        [&] {
+          for (auto it = poses_seen_.rbegin(); it != poses_seen_.rend(); ++it) {
+            if (it->header.stamp_ns == stamp_ns) return true;
+          }
+          return false;
+        },
+        "a pose stamped " + std::to_string(stamp_ns));
+  }
+
+  // Until the status counts at least `count` rejected messages.
+  ::testing::AssertionResult wait_rejected(uint64_t count) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    return wait(lock, [&] { return status_.rejected >= count; }, std::to_string(count) + " rejected message(s)");
+  }
+
+  // The lock over everything recorded; a test's own reader callbacks take it too, then notify().
+  std::unique_lock<std::mutex> lock() { return std::unique_lock<std::mutex>(mutex_); }
+  std::mutex& mutex() { return mutex_; }
+  void notify() { changed_.notify_all(); }
+
+  // Read with lock() held.
+  const RobotStatus& status() const { return status_; }
+  const std::vector<PoseEstimate>& poses() const { return poses_seen_; }
+
+  // Copies, taking the lock.
+  RobotStatus status_now() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return status_;
+  }
+  size_t pose_count() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return poses_seen_.size();
+  }
+
+ private:
+  const std::string robot_id_;
+  ChildProcess& locd_;
+  const std::chrono::seconds timeout_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  RobotStatus status_;
+  std::vector<PoseEstimate> poses_seen_;
+  // Last: the readers' callbacks use the members above.
+  dds::Participant participant_;
+  dds::Writer<locd_msg_SessionRequest> requests_;
+  dds::Reader<locd_msg_SessionStatus> statuses_;
+  dds::Reader<locd_msg_PoseEstimate> poses_;
+};
+
+}  // namespace locd::test
