@@ -6,8 +6,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "locd/sdk/plugin_config.hpp"
-#include "locd/sdk/plugin_loader.hpp"
+#include "plugin_fixture.hpp"
 #include "locd/sim_feature_ekf/road_sign_drive.hpp"
 #include "test_env.hpp"
 
@@ -16,39 +15,19 @@ namespace rs = locd::sim::road_signs;
 
 namespace {
 
-class FeatureEkfLandmarkPlugin : public ::testing::Test {
+class FeatureEkfLandmarkPlugin : public test::FeatureEkfPluginFixture {
  protected:
-  void SetUp() override {
-    map_dir_ = std::filesystem::temp_directory_path() / ("feature_ekf_landmark_test_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(map_dir_);
-    std::ofstream(map_dir_ / "signs.csv") << world_.database_csv();
-    catalog_ = PluginCatalog({test::plugin_dir()});
-    context_.robot_id = "car";
-    context_.maps = MapResolver({map_dir_});
-  }
-  void TearDown() override { std::filesystem::remove_all(map_dir_); }
-
-  LocalizerPtr configured(const std::string& params_yaml) {
-    const PluginConfig config = split_plugin_config("plugin: feature_ekf\nparams:\n" + params_yaml, "test config");
-    return create_configured(catalog_, config.plugin, context_, config.params);
-  }
-  std::string config_error(const std::string& params_yaml) {
-    try {
-      configured(params_yaml);
-    } catch (const ConfigError& e) {
-      return e.what();
-    }
-    return "no ConfigError";
+  FeatureEkfLandmarkPlugin() : FeatureEkfPluginFixture("car", "signs.csv", world().database_csv()) {}
+  static const rs::RoadSignWorld& world() {
+    static const rs::RoadSignWorld w{rs::WorldConfig{}};
+    return w;
   }
   std::string base(const std::string& model = "geodetic_landmarks") const {
     return "  model: " + model + "\n  landmarks: signs.csv\n  centre: [" + std::to_string(world_.config().centre_latitude_deg) +
            ", " + std::to_string(world_.config().centre_longitude_deg) + "]\n  altitude: 50.0\n";
   }
 
-  rs::RoadSignWorld world_{rs::WorldConfig{}};
-  std::filesystem::path map_dir_;
-  PluginCatalog catalog_;
-  PluginContext context_;
+  const rs::RoadSignWorld& world_ = world();
 };
 
 std::string input_error(Localizer& l, const Measurement& m) {

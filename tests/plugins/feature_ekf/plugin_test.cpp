@@ -5,8 +5,7 @@
 #include <fstream>
 #include <random>
 
-#include "locd/sdk/plugin_config.hpp"
-#include "locd/sdk/plugin_loader.hpp"
+#include "plugin_fixture.hpp"
 #include "synthetic_scan.hpp"
 #include "test_env.hpp"
 
@@ -21,36 +20,9 @@ const char* kBuilding = R"(walls:
 closed: [true, false, false]
 )";
 
-class FeatureEkfPlugin : public ::testing::Test {
+class FeatureEkfPlugin : public test::FeatureEkfPluginFixture {
  protected:
-  void SetUp() override {
-    map_dir_ = std::filesystem::temp_directory_path() /
-               ("feature_ekf_plugin_test_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(map_dir_);
-    std::ofstream(map_dir_ / "building.yaml") << kBuilding;
-    catalog_ = PluginCatalog({test::plugin_dir()});
-    context_.robot_id = "r1";
-    context_.maps = MapResolver({map_dir_});
-  }
-  void TearDown() override { std::filesystem::remove_all(map_dir_); }
-
-  LocalizerPtr configured(const std::string& params_yaml) {
-    const PluginConfig config = split_plugin_config("plugin: feature_ekf\nparams:\n" + params_yaml, "test config");
-    return create_configured(catalog_, config.plugin, context_, config.params);
-  }
-
-  std::string config_error(const std::string& params_yaml) {
-    try {
-      configured(params_yaml);
-    } catch (const ConfigError& e) {
-      return e.what();
-    }
-    return "no ConfigError";
-  }
-
-  std::filesystem::path map_dir_;
-  PluginCatalog catalog_;
-  PluginContext context_;
+  FeatureEkfPlugin() : FeatureEkfPluginFixture("r1", "building.yaml", kBuilding) {}
 };
 
 Odometry odometry_at(const Pose2& pose, int64_t stamp) {
