@@ -17,19 +17,11 @@
 #include <vector>
 
 #include "child_process.hpp"
+#include "locd/client/wire.hpp"
 #include "locd/dds/convert.hpp"
 #include "locd/dds/topics.hpp"
 
 namespace locd::test {
-
-// The last session status of this robot, as the robot sees it.
-struct RobotStatus {
-  bool running = false;
-  uint64_t request_id = 0;
-  bool request_ok = false;
-  uint64_t received = 0, used = 0, rejected = 0, updates = 0;
-  std::string message, last_error;
-};
 
 class RobotSide {
  public:
@@ -43,16 +35,9 @@ class RobotSide {
         statuses_(participant_, topics::kSessionStatus, dds::QosProfile::kState,
                   [this](const locd_msg_SessionStatus& m) {
                     if (dds::to_string(m.robot_id) != robot_id_) return;
+                    SessionStatus status = status_from_wire(m);
                     std::lock_guard<std::mutex> lock(mutex_);
-                    status_.running = m.state == locd_msg_STATE_RUNNING;
-                    status_.request_id = m.request_id;
-                    status_.request_ok = m.request_ok;
-                    status_.received = m.received;
-                    status_.used = m.used;
-                    status_.rejected = m.rejected;
-                    status_.updates = m.updates;
-                    status_.message = dds::to_string(m.message);
-                    status_.last_error = dds::to_string(m.last_error);
+                    status_ = std::move(status);
                     changed_.notify_all();
                   }),
         poses_(participant_, topics::kPose, dds::QosProfile::kPose, [this](const locd_msg_PoseEstimate& m) {
@@ -91,7 +76,7 @@ class RobotSide {
     dds::copy_string(request->config_yaml, config_yaml);
     requests_.write(*request);
     std::unique_lock<std::mutex> lock(mutex_);
-    return wait(lock, [&] { return status_.running && status_.request_id == request_id; }, "session running");
+    return wait(lock, [&] { return status_.state == "running" && status_.request_id == request_id; }, "session running");
   }
 
   // With lock() held: waits until `done` holds; the failure names `what`, the status and locd's log.
@@ -130,11 +115,11 @@ class RobotSide {
   void notify() { changed_.notify_all(); }
 
   // Read with lock() held.
-  const RobotStatus& status() const { return status_; }
+  const SessionStatus& status() const { return status_; }
   const std::vector<PoseEstimate>& poses() const { return poses_seen_; }
 
   // Copies, taking the lock.
-  RobotStatus status_now() {
+  SessionStatus status_now() {
     std::lock_guard<std::mutex> lock(mutex_);
     return status_;
   }
@@ -149,7 +134,7 @@ class RobotSide {
   const std::chrono::seconds timeout_;
   std::mutex mutex_;
   std::condition_variable changed_;
-  RobotStatus status_;
+  SessionStatus status_;
   std::vector<PoseEstimate> poses_seen_;
   // Last: the readers' callbacks use the members above.
   dds::Participant participant_;

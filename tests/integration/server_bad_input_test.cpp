@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "child_process.hpp"
+#include "locd/client/wire.hpp"
 #include "locd/dds/convert.hpp"
 #include "locd/dds/topics.hpp"
 #include "test_env.hpp"
@@ -29,16 +30,10 @@ using locd::dds::QosProfile;
 constexpr auto kTimeout = 20s;
 constexpr size_t kMaxScanBeams = 400;
 
-struct Status {
-  std::string robot_id, plugin, message, last_error;
-  locd_msg_SessionState state = locd_msg_STATE_STARTING;
-  uint64_t request_id = 0;
-  bool request_ok = false;
-  uint64_t received = 0, used = 0, dropped = 0, rejected = 0, updates = 0;
-};
+using Status = locd::SessionStatus;
 
 std::string describe(const Status& s) {
-  return "robot " + s.robot_id + " state " + std::to_string(s.state) + " plugin '" + s.plugin + "' request " +
+  return "robot " + s.robot_id + " state " + s.state + " plugin '" + s.plugin + "' request " +
          std::to_string(s.request_id) + (s.request_ok ? " ok" : " failed") + " message '" + s.message +
          "' last_error '" + s.last_error + "' received " + std::to_string(s.received) + " used " +
          std::to_string(s.used) + " dropped " + std::to_string(s.dropped) + " rejected " +
@@ -72,19 +67,7 @@ class LocdOverDds {
     odometry_ = locd::dds::Writer<locd_msg_Odometry>(*participant_, locd::topics::kOdometry, QosProfile::kSensor, 64);
     statuses_ = locd::dds::Reader<locd_msg_SessionStatus>(
         *participant_, locd::topics::kSessionStatus, QosProfile::kState, [this](const locd_msg_SessionStatus& m) {
-          Status s;
-          s.robot_id = locd::dds::to_string(m.robot_id);
-          s.plugin = locd::dds::to_string(m.plugin);
-          s.message = locd::dds::to_string(m.message);
-          s.last_error = locd::dds::to_string(m.last_error);
-          s.state = m.state;
-          s.request_id = m.request_id;
-          s.request_ok = m.request_ok;
-          s.received = m.received;
-          s.used = m.used;
-          s.dropped = m.dropped;
-          s.rejected = m.rejected;
-          s.updates = m.updates;
+          const Status s = locd::status_from_wire(m);
           std::lock_guard<std::mutex> lock(mutex_);
           history_.push_back(s);
           changed_.notify_all();
@@ -127,7 +110,7 @@ class LocdOverDds {
     locd::dds::copy_string(sample->plugin, plugin);
     locd::dds::copy_string(sample->config_yaml, yaml);
     requests_.write(*sample);
-    return wait_status(robot, [id](const Status& s) { return s.request_id == id && s.state != locd_msg_STATE_STARTING; });
+    return wait_status(robot, [id](const Status& s) { return s.request_id == id && s.state != "starting"; });
   }
 
   // Waits for a status of `robot` matching `pred`; fails the test with the last one seen.
@@ -215,7 +198,7 @@ TEST(ServerBadInput, MalformedYamlNamesLineAndColumn) {
   LocdOverDds locd(50);
   const auto s = locd.request("robot_yaml", 1, "", "plugin: fixture_odometry\nparams:\n  position_stddev: [0.1\n");
   EXPECT_FALSE(s.request_ok);
-  EXPECT_EQ(s.state, locd_msg_STATE_ERROR);
+  EXPECT_EQ(s.state, "error");
   EXPECT_CONTAINS(s.message, "malformed YAML at line 4, column 1");
   EXPECT_CONTAINS(s.message, "session request 1 for robot 'robot_yaml'");
 }
@@ -269,7 +252,7 @@ TEST(ServerBadInput, ParameterOutOfRangeNamesKeyAndAllowedRange) {
 TEST(ServerBadInput, MessageForARobotWithoutSessionIsAnswered) {
   LocdOverDds locd(55);
   locd.send_scan("robot_ghost", 1000, std::vector<float>(100, 2.0f));
-  const auto s = locd.wait_status("robot_ghost", [](const Status& st) { return st.state == locd_msg_STATE_NO_SESSION; });
+  const auto s = locd.wait_status("robot_ghost", [](const Status& st) { return st.state == "no_session"; });
   EXPECT_CONTAINS(s.last_error, "no session for robot 'robot_ghost': message on locd/scan ignored");
   EXPECT_CONTAINS(s.last_error, "send a session request on locd/session_request");
   EXPECT_GE(s.received, 1u);

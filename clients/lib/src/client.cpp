@@ -1,4 +1,5 @@
 #include "locd/client/client.hpp"
+#include "locd/client/wire.hpp"
 
 #include <algorithm>
 #include <condition_variable>
@@ -35,26 +36,6 @@ std::string state_name(locd_msg_SessionState state) {
     case locd_msg_STATE_NO_SESSION: return "no_session";
   }
   return "unknown(" + std::to_string(static_cast<int>(state)) + ")";
-}
-
-SessionStatus status_from_wire(const locd_msg_SessionStatus& m) {
-  SessionStatus s;
-  s.robot_id = dds::to_string(m.robot_id);
-  s.server_id = dds::to_string(m.server_id);
-  s.state = state_name(m.state);
-  s.plugin = dds::to_string(m.plugin);
-  s.request_id = m.request_id;
-  s.request_ok = m.request_ok;
-  s.message = dds::to_string(m.message);
-  s.last_error = dds::to_string(m.last_error);
-  s.received = m.received;
-  s.used = m.used;
-  s.dropped = m.dropped;
-  s.rejected = m.rejected;
-  s.updates = m.updates;
-  s.last_update_ms = m.last_update_ms;
-  s.stamp_ns = m.header.stamp_ns;
-  return s;
 }
 
 ServerInfo server_info_from_wire(const locd_msg_ServerInfo& m) {
@@ -107,6 +88,26 @@ struct Subscription {
 };
 
 }  // namespace
+
+SessionStatus status_from_wire(const locd_msg_SessionStatus& m) {
+  SessionStatus s;
+  s.robot_id = dds::to_string(m.robot_id);
+  s.server_id = dds::to_string(m.server_id);
+  s.state = state_name(m.state);
+  s.plugin = dds::to_string(m.plugin);
+  s.request_id = m.request_id;
+  s.request_ok = m.request_ok;
+  s.message = dds::to_string(m.message);
+  s.last_error = dds::to_string(m.last_error);
+  s.received = m.received;
+  s.used = m.used;
+  s.dropped = m.dropped;
+  s.rejected = m.rejected;
+  s.updates = m.updates;
+  s.last_update_ms = m.last_update_ms;
+  s.stamp_ns = m.header.stamp_ns;
+  return s;
+}
 
 // Refuses options DDS could not carry, before any entity is created.
 const ClientOptions& checked(const ClientOptions& o) {
