@@ -101,7 +101,13 @@ bool Session::push(Measurement measurement) {
       });
       queue_.insert(position, std::move(measurement));
       if (queue_.size() > queue_depth_) {
-        queue_.pop_front();
+        // The oldest sensor frame goes first: odometry and IMU carry the motion every later
+        // frame is placed with, and a plugin that lost them would place frames at stale poses.
+        auto victim = std::find_if(queue_.begin(), queue_.end(), [](const Measurement& m) {
+          const MeasurementKind kind = kind_of(m);
+          return kind != MeasurementKind::kOdometry && kind != MeasurementKind::kImu;
+        });
+        queue_.erase(victim != queue_.end() ? victim : queue_.begin());
         ++counters_.dropped;
         dropped = true;
       }
@@ -112,7 +118,7 @@ bool Session::push(Measurement measurement) {
     log_rejection(error);
     publish_status_later();
   } else if (dropped) {
-    log(LogLevel::kDebug, "queue full (" + std::to_string(queue_depth_) + "): dropped the oldest message");
+    log(LogLevel::kDebug, "queue full (" + std::to_string(queue_depth_) + "): dropped the oldest sensor frame");
   }
   return true;
 }

@@ -159,6 +159,22 @@ TEST_F(SessionTest, FullQueueDropsTheOldestAndCountsIt) {
   EXPECT_EQ(record->stamps, (std::vector<int64_t>{3, 4, 5}));
 }
 
+TEST_F(SessionTest, FullQueueDropsTheOldestSensorFrameBeforeAnyOdometry) {
+  auto session = make(3);
+  auto record = std::make_shared<Record>();
+  session->push(odometry(1));
+  session->push(scan(2));
+  session->push(odometry(3));
+  session->push(scan(4));  // full: scan 2 goes, odometry 1 stays
+  session->push(odometry(5));  // full: scan 4 goes
+  session->push(odometry(6));  // only odometry left: the oldest, 1, goes
+  EXPECT_EQ(session->status().counters.dropped, 3u);
+  install(*session, recording(record), "recording", 1);
+  ASSERT_TRUE(wait_used(*session, 3));
+  std::lock_guard<std::mutex> lock(record->mutex);
+  EXPECT_EQ(record->stamps, (std::vector<int64_t>{3, 5, 6}));
+}
+
 TEST_F(SessionTest, StampGoingBackwardsOnAKindIsRejectedAndNamed) {
   auto session = make(16);
   auto record = std::make_shared<Record>();

@@ -15,7 +15,7 @@ const char* session_state_name(SessionState state);
 struct SessionCounters {
   uint64_t received = 0;  // messages that arrived for the session (good or bad)
   uint64_t used = 0;      // measurements the plugin accepted
-  uint64_t dropped = 0;   // oldest messages dropped because the queue was full, or discarded
+  uint64_t dropped = 0;   // messages dropped because the queue was full (oldest sensor frame first), or discarded
                           // unprocessed when the session ended or its first plugin failed
   uint64_t rejected = 0;  // bad input: conversion, stamps going backwards, plugin InputError
   uint64_t updates = 0;   // estimates published

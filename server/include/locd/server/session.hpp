@@ -2,7 +2,9 @@
 //
 // - push() runs on a DDS listener thread and never blocks beyond a short lock: it checks the
 //   stamp against the last accepted one of the same kind, inserts at the sorted position and,
-//   when the queue is full, drops the oldest message.
+//   when the queue is full, drops the oldest sensor frame (scan, cloud, image, detections);
+//   odometry and IMU go only when nothing else is queued, so frames that are processed are
+//   never placed with a motion stream that has holes in it.
 // - The queue drains on the worker pool as a strand: at most one drain task is scheduled at a
 //   time, so the plugin never sees two calls at once. Control work (install a plugin, set the
 //   pose, stop) goes through the same strand, ahead of queued measurements.
