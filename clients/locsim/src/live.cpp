@@ -1,5 +1,6 @@
 #include "live.hpp"
 
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <iostream>
@@ -69,8 +70,13 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
   }
 
   Simulation simulation(scenario, result.seed, result.duration_s, 0);
+  // The robot's clock: stamps are the simulated measurement times, shifted to this run's
+  // wall-clock start (so every run's stamps are new), as a robot stamps a measurement when it is
+  // taken. Publish times are only for the latency figures: a late publish (a loaded machine)
+  // must not bend the dt a plugin derives velocities from.
+  const int64_t clock_origin_ns = wall_ns();
   PoseEstimate initial = simulation.initial_pose();
-  initial.header.stamp_ns = wall_ns();
+  initial.header.stamp_ns = clock_origin_ns;
   client.set_initial_pose(initial);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
 
@@ -110,10 +116,10 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
     const auto due = wall_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                       std::chrono::duration<double>(m->t / options.rate));
     std::this_thread::sleep_until(due);
-    const int64_t stamp = wall_ns();
+    const int64_t stamp = clock_origin_ns + static_cast<int64_t>(std::llround(m->t * 1e9));
     const Pose2 truth = simulation.truth().at(m->t).pose;
     std::visit([&](auto& value) { value.header.stamp_ns = stamp; }, m->measurement);
-    published[stamp] = Published{m->t, truth, stamp};
+    published[stamp] = Published{m->t, truth, wall_ns()};
     ++result.measurements;
     std::visit(
         [&](const auto& value) {
