@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "error_of.hpp"
 #include "locd/sdk/feature_map.hpp"
 #include "locd/sdk/plugin_loader.hpp"
 
@@ -24,30 +25,23 @@ struct TempTree {
   ~TempTree() { fs::remove_all(root); }
 };
 
-template <typename F>
-std::string config_error(F&& f) {
-  try {
-    f();
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  return "";
-}
 
 }  // namespace
+
+using locd::test::error_of;
 
 TEST(MapResolver, ResolvesOnlyInsideMapDirectories) {
   TempTree t;
   const MapResolver maps({t.root / "maps"});
   EXPECT_EQ(maps.resolve("a.yaml"), fs::canonical(t.root / "maps" / "a.yaml"));
   EXPECT_EQ(maps.resolve("sub/b.yaml"), fs::canonical(t.root / "maps" / "sub" / "b.yaml"));
-  EXPECT_NE(config_error([&] { maps.resolve((t.root / "secret" / "key.yaml").string()); }).find("absolute"),
+  EXPECT_NE(error_of([&] { maps.resolve((t.root / "secret" / "key.yaml").string()); }).find("absolute"),
             std::string::npos);
-  EXPECT_NE(config_error([&] { maps.resolve("../secret/key.yaml"); }).find("'..'"), std::string::npos);
-  EXPECT_NE(config_error([&] { maps.resolve("escape.yaml"); }).find("outside the map directory"), std::string::npos);
-  const std::string missing = config_error([&] { maps.resolve("nope.yaml"); });
+  EXPECT_NE(error_of([&] { maps.resolve("../secret/key.yaml"); }).find("'..'"), std::string::npos);
+  EXPECT_NE(error_of([&] { maps.resolve("escape.yaml"); }).find("outside the map directory"), std::string::npos);
+  const std::string missing = error_of([&] { maps.resolve("nope.yaml"); });
   EXPECT_NE(missing.find("'nope.yaml' not found"), std::string::npos) << missing;
-  EXPECT_NE(config_error([&] { maps.resolve(""); }).find("empty"), std::string::npos);
+  EXPECT_NE(error_of([&] { maps.resolve(""); }).find("empty"), std::string::npos);
 }
 
 TEST(FeatureMap, WallsExpandToLinesCornersEdges) {
@@ -66,15 +60,15 @@ TEST(FeatureMap, WallsExpandToLinesCornersEdges) {
 }
 
 TEST(FeatureMap, ErrorsNameTheKeyAndTheLimit) {
-  EXPECT_NE(config_error([] { parse_feature_map(Params::parse("walls: [[[0, 0]]]\n", "m"), 100); }).find("at least 2 points"),
+  EXPECT_NE(error_of([] { parse_feature_map(Params::parse("walls: [[[0, 0]]]\n", "m"), 100); }).find("at least 2 points"),
             std::string::npos);
-  EXPECT_NE(config_error([] { parse_feature_map(Params::parse("walls: [[[0, 0], [1, x]]]\n", "m"), 100); }).find("'walls'"),
+  EXPECT_NE(error_of([] { parse_feature_map(Params::parse("walls: [[[0, 0], [1, x]]]\n", "m"), 100); }).find("'walls'"),
             std::string::npos);
-  EXPECT_NE(config_error([] { parse_feature_map(Params::parse("walls: [[[0, 0], [1, 0], [2, 0]]]\n", "m"), 3); }).find("limit"),
+  EXPECT_NE(error_of([] { parse_feature_map(Params::parse("walls: [[[0, 0], [1, 0], [2, 0]]]\n", "m"), 3); }).find("limit"),
             std::string::npos);
-  EXPECT_NE(config_error([] { parse_feature_map(Params::parse("wals: []\n", "m"), 10); }).find("unknown parameter 'wals'"),
+  EXPECT_NE(error_of([] { parse_feature_map(Params::parse("wals: []\n", "m"), 10); }).find("unknown parameter 'wals'"),
             std::string::npos);
-  EXPECT_NE(config_error([] { parse_feature_map(Params::parse("frame_id: map\n", "m"), 10); }).find("no features"),
+  EXPECT_NE(error_of([] { parse_feature_map(Params::parse("frame_id: map\n", "m"), 10); }).find("no features"),
             std::string::npos);
 }
 
@@ -89,7 +83,7 @@ TEST(PluginLoader, MissingFileNamesTheFile) {
 
 TEST(PluginLoader, UnknownPluginListsKnownOnes) {
   const PluginCatalog empty;
-  const std::string msg = config_error([&] { empty.create("nope"); });
+  const std::string msg = error_of([&] { empty.create("nope"); });
   EXPECT_NE(msg.find("unknown plugin 'nope'"), std::string::npos) << msg;
   const PluginCatalog missing_dir({"/nonexistent/plugins"});
   ASSERT_EQ(missing_dir.rejected().size(), 1u);

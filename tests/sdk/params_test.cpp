@@ -1,25 +1,13 @@
 #include <gtest/gtest.h>
 
+#include "error_of.hpp"
 #include "locd/sdk/params.hpp"
 
 using locd::ConfigError;
 using locd::Params;
 using locd::Range;
 
-namespace {
-
-// The message of the ConfigError that `f` throws ("" if none).
-template <typename F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  return "";
-}
-
-}  // namespace
+using locd::test::error_of;
 
 TEST(Params, MalformedYamlNamesLineAndColumn) {
   const std::string msg = error_of([] { Params::parse("a: 1\nb: [1, 2\nc: 3\n", "robot.yaml"); });

@@ -6,6 +6,7 @@
 #include <functional>
 #include <random>
 
+#include "error_of.hpp"
 #include "locd/feature_ekf/extended_kalman_filter.hpp"
 #include "locd/feature_ekf/geodetic_models.hpp"
 #include "locd/feature_ekf/landmark_database.hpp"
@@ -18,16 +19,10 @@ namespace {
 
 constexpr double kDegree = M_PI / 180.0;
 
+using locd::test::error_of;
+
 OperatingArea area() { return OperatingArea::centred_at(36.1 * kDegree, 129.37 * kDegree, 50.0); }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  return "no ConfigError";
-}
 
 }  // namespace
 
