@@ -63,6 +63,7 @@ SimulatedScan Scanner3D::scan(const IndoorWorld& world, const Eigen::Isometry3d&
   out.cloud.header.stamp_ns = stamp_ns;
   out.cloud.header.frame_id = "scanner";
   out.cloud.sensor_pose = sensor_in_base();
+  out.sensor_in_world = origin.cast<float>();
   out.cloud.points.reserve(directions_.size());
   if (config_.with_intensity) out.cloud.intensity.reserve(directions_.size());
   out.hit_object.reserve(directions_.size());

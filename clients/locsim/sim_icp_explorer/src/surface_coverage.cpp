@@ -19,6 +19,12 @@ int64_t SurfaceCoverage::key(const Eigen::Vector3f& p) const {
   return (x << 42) | (y << 21) | z;
 }
 
+int64_t SurfaceCoverage::surface_voxel(const Eigen::Vector3f& hit, const Eigen::Vector3f& sensor) const {
+  const Eigen::Vector3f back = sensor - hit;
+  const float length = back.norm();
+  return key(length > 1e-6f ? Eigen::Vector3f(hit + back * (1e-3f / length)) : hit);
+}
+
 SurfaceCoverage::SurfaceCoverage(const IndoorWorld& world, const Scanner3DConfig& reference_scanner,
                                  double voxel_size, double grid_step, double robot_radius,
                                  const Eigen::Vector2d& start, int scan_every, double z_low, double z_high)
@@ -62,12 +68,11 @@ SurfaceCoverage::SurfaceCoverage(const IndoorWorld& world, const Scanner3DConfig
     }
   }
   std::mt19937_64 rng(1);
-  const size_t first_person = world.boxes().size();
+  const IndoorWorld static_world(world.boxes(), {});
   for (const auto& xy : scanned) {
-    const SimulatedScan s = scanner.scan(world, Pose2(xy.x(), xy.y(), 0.0).to_isometry(), 0.0, 0, rng);
+    const SimulatedScan s = scanner.scan(static_world, Pose2(xy.x(), xy.y(), 0.0).to_isometry(), 0.0, 0, rng);
     for (size_t i = 0; i < s.points_in_world.size(); ++i)
-      if (static_cast<size_t>(s.hit_object[i]) < first_person && counted(s.points_in_world[i]))
-        reference_.insert(key(s.points_in_world[i]));
+      if (counted(s.points_in_world[i])) reference_.insert(surface_voxel(s.points_in_world[i], s.sensor_in_world));
   }
 }
 
@@ -75,7 +80,7 @@ void SurfaceCoverage::add(const SimulatedScan& scan, const IndoorWorld& world) {
   const size_t first_person = world.boxes().size();
   for (size_t i = 0; i < scan.points_in_world.size(); ++i) {
     if (static_cast<size_t>(scan.hit_object[i]) >= first_person) continue;
-    const int64_t k = key(scan.points_in_world[i]);
+    const int64_t k = surface_voxel(scan.points_in_world[i], scan.sensor_in_world);
     if (reference_.count(k)) covered_.insert(k);
   }
 }

@@ -32,6 +32,7 @@ struct SimulatedScan {
   PointCloud cloud;                  // sensor frame, sensor_pose = sensor in base_link
   std::vector<int> hit_object;       // one per point
   std::vector<Eigen::Vector3f> points_in_world;  // exact (noise-free) hit points, world frame
+  Eigen::Vector3f sensor_in_world = Eigen::Vector3f::Zero();  // where the rays start
 };
 
 class Scanner3D {

@@ -1,9 +1,13 @@
-// How much of a world's observable static structure the scans so far have seen. The reference is
-// what dense virtual scans from every free grid position would see (voxels of `voxel_size`
-// holding a static hit between z_low and z_high: walls, doors' jambs and lintels, furniture;
-// floor and ceiling slabs are left out, since a scanner reaching only 45 degrees down sees the
-// floor in a ring under itself); a scan covers the reference voxels its static hits fall in.
-// Moving people count for neither.
+// How much of a world's observable static structure the scans so far have seen. The reference
+// (the denominator) is the observable surface, computed once per world: what virtual scans of
+// the static world (people removed, no noise) from free, reachable grid positions at scanner
+// height see. It holds voxels of `voxel_size` with a static hit between z_low and z_high (walls,
+// doors' jambs and lintels, furniture; floor and ceiling slabs are left out, since a scanner
+// reaching only 45 degrees down sees the floor in a ring under itself). A hit counts in the
+// voxel just in front of the surface (the point moved 1 mm back toward the scanner): a face lying
+// on a voxel boundary (the four-room world's walls are on the 0.2 m grid) is one voxel, not two
+// voxels picked by rounding, one of them inside the wall. A scan covers the reference voxels its
+// static hits fall in; moving people count for neither.
 #pragma once
 
 #include <Eigen/Core>
@@ -26,6 +30,10 @@ class SurfaceCoverage {
                   double z_low = 0.05, double z_high = 2.5);
 
   void add(const SimulatedScan& scan, const IndoorWorld& world);
+  // The voxel (packed key) a hit at `hit` seen from `sensor` counts in.
+  int64_t surface_voxel(const Eigen::Vector3f& hit, const Eigen::Vector3f& sensor) const;
+  // True when the voxel holding `point` is part of the reference.
+  bool in_reference(const Eigen::Vector3f& point) const { return reference_.count(key(point)) > 0; }
   double ratio() const;  // covered reference voxels / reference voxels
   size_t reference_voxels() const { return reference_.size(); }
   size_t covered_voxels() const { return covered_.size(); }
