@@ -14,6 +14,7 @@ LayeredHexahedralMap::LayeredHexahedralMap(const LayeredMapSettings& settings) :
   const size_t cells = static_cast<size_t>(layers_) * rows_ * columns_;
   probability_.assign(cells, 0.0f);
   seen_through_.assign(cells, 0);
+  extent_.assign(cells, Eigen::AlignedBox2f());
 }
 
 bool LayeredHexahedralMap::column_of(const Eigen::Vector2d& xy, int& column, int& row) const {
@@ -69,6 +70,7 @@ void LayeredHexahedralMap::integrate(const std::vector<Eigen::Vector3d>& points,
       auto& h = hits[flat(end)];
       h.first = (p - scanner).norm();
       ++h.second;
+      extent_[flat(end)].extend(p.head<2>().cast<float>());
     }
     // Amanatides-Woo traversal from the scanner to the point; the end cube is not seen through.
     const Eigen::Vector3d d = p - scanner;
@@ -147,6 +149,15 @@ CellState LayeredHexahedralMap::column_state(int column, int row, double height)
     if (s != CellState::kEmpty) all_empty = false;
   }
   return all_empty ? CellState::kEmpty : CellState::kUnknown;
+}
+
+Eigen::AlignedBox2d LayeredHexahedralMap::obstacle_extent(int column, int row, double height) const {
+  Eigen::AlignedBox2d box;
+  for (int l = 0; l < layers_; ++l) {
+    if (settings_.z_min + l * settings_.layer_height >= height) break;
+    if (state(l, column, row) == CellState::kOccupied) box.extend(extent_[index(l, column, row)].cast<double>());
+  }
+  return box;
 }
 
 GridLayer LayeredHexahedralMap::layer_grid(int layer) const {

@@ -42,22 +42,31 @@ std::vector<float> NextBestViewPlanner::movable(const LayeredHexahedralMap& map,
   for (int r = 0; r < rows; ++r)
     for (int c = 0; c < columns; ++c)
       column[static_cast<size_t>(r) * columns + c] = map.column_state(c, r, settings_.robot_height);
-  // Occupied columns inflated by the robot radius block the way; a scan position needs its whole
-  // footprint known to be empty (not next to an unseen wall).
+  // A column is blocked when the returns of an occupied column come within the robot radius of
+  // its centre (clearance to the surface itself, not to the cube holding it); a scan position
+  // also needs its whole footprint known, with no unknown column within the radius.
   std::vector<char> blocked(cells, 0), unclear(cells, 0);
-  const int reach = static_cast<int>(std::ceil(settings_.robot_radius / cell));
+  const int reach = static_cast<int>(std::ceil(settings_.robot_radius / cell + 0.5));
   for (int r = 0; r < rows; ++r)
     for (int c = 0; c < columns; ++c) {
       const CellState s = column[static_cast<size_t>(r) * columns + c];
       if (s == CellState::kEmpty) continue;
+      Eigen::AlignedBox2d obstacle;
+      if (s == CellState::kOccupied) {
+        obstacle = map.obstacle_extent(c, r, settings_.robot_height);
+        const Eigen::Vector2d half = Eigen::Vector2d::Constant(0.5 * cell);
+        if (obstacle.isEmpty()) obstacle = Eigen::AlignedBox2d(map.column_centre(c, r) - half, map.column_centre(c, r) + half);
+      }
       for (int dr = -reach; dr <= reach; ++dr)
         for (int dc = -reach; dc <= reach; ++dc) {
           const int rr = r + dr, cc = c + dc;
           if (rr < 0 || cc < 0 || rr >= rows || cc >= columns) continue;
-          if (std::hypot(dr, dc) * cell > settings_.robot_radius + 0.5 * cell) continue;
           const size_t j = static_cast<size_t>(rr) * columns + cc;
-          unclear[j] = 1;
-          if (s == CellState::kOccupied) blocked[j] = 1;
+          if (s == CellState::kUnknown) {
+            if (std::hypot(dr, dc) * cell <= settings_.robot_radius + 0.5 * cell) unclear[j] = 1;
+          } else if (obstacle.exteriorDistance(map.column_centre(cc, rr)) <= settings_.robot_radius) {
+            blocked[j] = unclear[j] = 1;
+          }
         }
     }
   int c0 = 0, r0 = 0;

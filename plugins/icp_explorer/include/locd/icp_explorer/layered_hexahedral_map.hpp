@@ -8,9 +8,13 @@
 // cubes they cross as seen through. A cube is occupied when P >= occupied_probability, empty
 // when seen through and not occupied, unknown otherwise. A column (j, k) is conflicted when some
 // of its layers are unknown and others known: a partially scanned (occluded) place.
+// Each cube also keeps the horizontal extent of the returns that fell in it, so traversability
+// can measure the clearance to the surface itself rather than to the whole cube (a door's jamb
+// lying on a cube boundary would otherwise close a 1 m door to a 0.3 m robot).
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cstdint>
 #include <vector>
 
@@ -64,6 +68,9 @@ class LayeredHexahedralMap {
   // Traversability for a robot of `height`: occupied when any layer below height is occupied,
   // empty when all those layers are empty, unknown otherwise.
   CellState column_state(int column, int row, double height) const;
+  // Horizontal extent of the returns in the column's occupied cubes below `height` (empty box
+  // when none is occupied).
+  Eigen::AlignedBox2d obstacle_extent(int column, int row, double height) const;
 
   // Layer as a grid: occupied 1, empty 0, unknown NaN (for diagnostics and tests).
   GridLayer layer_grid(int layer) const;
@@ -76,6 +83,7 @@ class LayeredHexahedralMap {
   int columns_ = 0, rows_ = 0, layers_ = 0;
   std::vector<float> probability_;
   std::vector<uint16_t> seen_through_;
+  std::vector<Eigen::AlignedBox2f> extent_;  // per cube, horizontal extent of its returns
 };
 
 }  // namespace locd::icp_explorer

@@ -1,6 +1,8 @@
 // Next scan position from the layered hexahedral map (paper section 3):
 //   movable m(x, y): flood fill from the robot over columns that are not occupied (inflated by
-//     the robot radius); a column reached over empty columns only is movable (1), one reached
+//     the robot radius, measured to the returns in the occupied cubes rather than to the cubes,
+//     so a 1 m door whose jambs lie on cube boundaries stays open to a 0.3 m robot); a column
+//     reached over empty columns only is movable (1), one reached
 //     only through unknown columns is possibly movable (possibly_movable_weight); only columns
 //     whose whole footprint (robot radius) is known empty are candidates, the rest are
 //     immovable (0);
