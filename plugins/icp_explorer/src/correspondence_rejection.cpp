@@ -4,6 +4,11 @@
 #include <cmath>
 #include <limits>
 
+namespace {
+// sqrt(x^2 + y^2) without std::hypot's overflow care (coordinates are metres).
+inline double planar_norm(double x, double y) { return std::sqrt(x * x + y * y); }
+}  // namespace
+
 namespace locd::icp_explorer {
 
 const char* rejection_name(Rejection r) {
@@ -31,6 +36,7 @@ CorrespondenceRejector::CorrespondenceRejector(const RejectionRules& rules, cons
   const double radius = rules.max_range + translation_bound_ + bound.margin;
   overlap_radius2_ = radius * radius;
   chord_per_metre_ = 2.0 * std::sin(std::min(bound.yaw, M_PI) / 2.0);
+  sin_tilt_ = std::sin(bound.tilt);
 }
 
 bool CorrespondenceRejector::intensity_consistent(float point_intensity, float model_intensity) const {
@@ -43,17 +49,17 @@ bool CorrespondenceRejector::in_overlap_region(const Eigen::Vector3d& model_poin
 }
 
 double CorrespondenceRejector::max_error_length(const Eigen::Vector3d& p) const {
-  const double r_xy = std::hypot(p.x(), p.y());
-  return translation_bound_ + chord_per_metre_ * r_xy + std::sin(bound_.tilt) * p.norm() + bound_.margin;
+  const double r_xy = planar_norm(p.x(), p.y());
+  return translation_bound_ + chord_per_metre_ * r_xy + sin_tilt_ * p.norm() + bound_.margin;
 }
 
 bool CorrespondenceRejector::error_direction_possible(const Eigen::Vector3d& p, const Eigen::Vector3d& q) const {
   // Error in the predicted base frame: q_base - p.
   const Eigen::Vector3d e = T_base_map_ * q - p;
-  const double vertical = bound_.vertical + std::sin(bound_.tilt) * std::hypot(p.x(), p.y()) + bound_.margin;
+  const double vertical = bound_.vertical + sin_tilt_ * planar_norm(p.x(), p.y()) + bound_.margin;
   if (std::abs(e.z()) > vertical) return false;
   // Horizontal: e_xy = box translation + s * tangent, |s| <= chord(yaw) * r_xy, tangent = (-p_y, p_x) / r_xy.
-  const double r_xy = std::hypot(p.x(), p.y());
+  const double r_xy = planar_norm(p.x(), p.y());
   const double half_x = bound_.forward + bound_.margin;
   const double half_y = bound_.lateral + bound_.margin;
   double s_low = -chord_per_metre_ * r_xy, s_high = chord_per_metre_ * r_xy;

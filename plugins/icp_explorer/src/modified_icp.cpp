@@ -1,8 +1,10 @@
 #include "locd/icp_explorer/modified_icp.hpp"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 namespace locd::icp_explorer {
 
@@ -55,6 +57,18 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
   const float no_intensity = std::numeric_limits<float>::quiet_NaN();
   double kernel = std::max(settings.initial_kernel_scale, settings.kernel_scale);
   const bool oriented = model.normals_face_scanners();
+  // Correspondence search with memory: where a data point was searched last (x_s), its nearest
+  // model point there (d1) and a lower bound on the second nearest (d2). After the point moves
+  // by delta, every other model point is at least d2 - delta away and the match at most
+  // d1 + delta, so the match is unchanged while delta < (d2 - d1) / 2: no search needed (exact).
+  // Otherwise the search is bounded by d2 + delta, which the two nearest cannot exceed.
+  struct Match {
+    Eigen::Vector3d searched_at;
+    size_t model = 0;
+    double nearest = -1.0, second = 0.0;  // m; nearest < 0: no match within the gate
+  };
+  std::vector<Match> matches(scan.points.size());
+  std::vector<char> searched(scan.points.size(), 0);
   for (int iteration = 0; iteration < settings.max_iterations; ++iteration) {
     Matrix6d H = Matrix6d::Zero();
     Vector6d g = Vector6d::Zero();
@@ -62,12 +76,28 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
     double squared_error = 0.0, weight_sum = 0.0;
     const double kernel2 = kernel * kernel;
     const Eigen::Vector3d scanner = result.T_map_base * rejector.sensor_in_base();
-    for (size_t i = 0; i < scan.points.size(); ++i) {
+    const size_t stride =
+        kernel > 4.0 * settings.kernel_scale ? static_cast<size_t>(std::max(1, settings.coarse_stride)) : 1;
+    for (size_t i = 0; i < scan.points.size(); i += stride) {
       const Eigen::Vector3d& p = scan.points[i];
       const Eigen::Vector3d x = result.T_map_base * p;
-      size_t j = 0;
-      double d2 = 0.0;
-      model.nearest(x, j, d2);
+      Match& match = matches[i];
+      const double moved_since_search = searched[i] ? (x - match.searched_at).norm() : 0.0;
+      if (!searched[i] || match.nearest < 0.0 || moved_since_search >= 0.5 * (match.second - match.nearest)) {
+        double bound2 = max_distance2;
+        if (searched[i] && match.nearest >= 0.0)
+          bound2 = std::min(bound2, (match.second + moved_since_search) * (match.second + moved_since_search) * (1.0 + 1e-9) + 1e-12);
+        size_t index[2];
+        double distance2[2];
+        const size_t found = model.nearest_two_within(x, bound2, index, distance2);
+        searched[i] = 1;
+        match.searched_at = x;
+        match.model = index[0];
+        match.nearest = found > 0 ? std::sqrt(distance2[0]) : -1.0;
+        match.second = std::sqrt(distance2[1]);
+      }
+      const size_t j = match.model;
+      const double d2 = match.nearest < 0.0 ? std::numeric_limits<double>::infinity() : (x - model.points()[j]).squaredNorm();
       if (d2 > max_distance2) {
         ++step.beyond_distance;
         continue;

@@ -1,6 +1,7 @@
 #include "locd/icp_explorer/voxel_map.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <nanoflann.hpp>
@@ -8,25 +9,34 @@
 namespace locd::icp_explorer {
 
 namespace {
+// The kd-tree indexes a float copy of the centroids: half the memory of doubles, so a search
+// touches half the cache lines (the search is most of a registration's time).
 struct CentroidAdaptor {
-  const std::vector<Eigen::Vector3d>* points;
+  const std::vector<Eigen::Vector3f>* points;
   size_t kdtree_get_point_count() const { return points->size(); }
-  double kdtree_get_pt(size_t i, size_t dim) const { return (*points)[i][static_cast<int>(dim)]; }
+  float kdtree_get_pt(size_t i, size_t dim) const { return (*points)[i][static_cast<int>(dim)]; }
   template <class Box>
   bool kdtree_get_bbox(Box&) const {
     return false;
   }
 };
 using CentroidTree =
-    nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, CentroidAdaptor>, CentroidAdaptor, 3,
+    nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, CentroidAdaptor>, CentroidAdaptor, 3,
                                         uint32_t>;
 }  // namespace
 
 struct VoxelMap::KdTree {
+  std::vector<Eigen::Vector3f> points;  // owned here, so moving the map keeps the tree valid
   CentroidAdaptor adaptor;
   CentroidTree tree;
-  explicit KdTree(const std::vector<Eigen::Vector3d>* points)
-      : adaptor{points}, tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(12)) {}
+  explicit KdTree(const std::vector<Eigen::Vector3d>& centroids)
+      : points(to_float(centroids)), adaptor{&points}, tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(12)) {}
+  static std::vector<Eigen::Vector3f> to_float(const std::vector<Eigen::Vector3d>& centroids) {
+    std::vector<Eigen::Vector3f> out;
+    out.reserve(centroids.size());
+    for (const auto& c : centroids) out.push_back(c.cast<float>());
+    return out;
+  }
 };
 
 VoxelMap::VoxelMap(double voxel_size, int normal_neighbours)
@@ -81,16 +91,16 @@ void VoxelMap::insert(const ScanPoints& scan, const std::optional<Eigen::Vector3
       touched.push_back(v);
     }
   }
-  tree_ = std::make_unique<KdTree>(&points_);
+  tree_ = std::make_unique<KdTree>(points_);
   refresh_normals(touched, viewpoint);
 }
 
 void VoxelMap::refresh_normals(const std::vector<uint32_t>& touched, const std::optional<Eigen::Vector3d>& viewpoint) {
   const size_t k = static_cast<size_t>(normal_neighbours_);
   std::vector<uint32_t> indices(k);
-  std::vector<double> distances(k);
+  std::vector<float> distances(k);
   for (uint32_t v : touched) {
-    size_t found = tree_->tree.knnSearch(points_[v].data(), k, indices.data(), distances.data());
+    size_t found = tree_->tree.knnSearch(tree_->points[v].data(), k, indices.data(), distances.data());
     // Only neighbours close enough to share the surface (a few voxels away) define a normal.
     const double reach2 = 9.0 * voxel_size_ * voxel_size_ * normal_neighbours_ / 4.0;
     size_t close = 0;
@@ -123,15 +133,80 @@ void VoxelMap::refresh_normals(const std::vector<uint32_t>& touched, const std::
 }
 
 bool VoxelMap::nearest(const Eigen::Vector3d& q, size_t& index, double& distance2) const {
-  if (!tree_ || points_.empty()) return false;
-  uint32_t i = 0;
-  double d2 = 0.0;
-  nanoflann::KNNResultSet<double, uint32_t> result(1);
-  result.init(&i, &d2);
-  tree_->tree.findNeighbors(result, q.data(), nanoflann::SearchParams(10, 0.0f, false));
-  index = i;
-  distance2 = d2;
+  size_t indices[2];
+  double distances2[2];
+  if (nearest_two_within(q, std::numeric_limits<double>::infinity(), indices, distances2) == 0) return false;
+  index = indices[0];
+  distance2 = distances2[0];
   return true;
+}
+
+namespace {
+// nanoflann result set for the two nearest neighbours with an initial bound: subtrees farther
+// than the bound (or than the second nearest found so far) are never visited.
+class BoundedNearestTwo {
+ public:
+  using DistanceType = float;
+  using IndexType = uint32_t;
+  using CountType = size_t;
+  explicit BoundedNearestTwo(float bound2) : distance2_{bound2, bound2} {}
+  size_t size() const { return count_; }
+  bool full() const { return count_ == 2; }
+  bool addPoint(float distance2, uint32_t index) {
+    if (distance2 >= distance2_[1]) return true;
+    if (distance2 < distance2_[0]) {
+      distance2_[1] = distance2_[0];
+      index_[1] = index_[0];
+      distance2_[0] = distance2;
+      index_[0] = index;
+    } else {
+      distance2_[1] = distance2;
+      index_[1] = index;
+    }
+    if (count_ < 2) ++count_;
+    return true;
+  }
+  float worstDist() const { return distance2_[1]; }
+  const float* distances2() const { return distance2_; }
+  const uint32_t* indices() const { return index_; }
+
+ private:
+  float distance2_[2];
+  uint32_t index_[2] = {0, 0};
+  size_t count_ = 0;
+};
+}  // namespace
+
+size_t VoxelMap::nearest_two_within(const Eigen::Vector3d& q, double bound2, size_t index[2], double distance2[2]) const {
+  if (!tree_ || points_.empty()) return 0;
+  // The search runs in float: the bound is widened and the second distance lowered by a
+  // millimetre-fraction so that both stay bounds; the nearest distance is recomputed in double.
+  constexpr double kSlack = 1e-5;  // m, well above float rounding of coordinates within 100 m
+  const double bound = std::sqrt(bound2);
+  const float search_bound2 =
+      std::isfinite(bound2) ? static_cast<float>((bound + kSlack) * (bound + kSlack)) : std::numeric_limits<float>::max();
+  BoundedNearestTwo result(search_bound2);
+  const Eigen::Vector3f query = q.cast<float>();
+  tree_->tree.findNeighbors(result, query.data(), nanoflann::SearchParams(10, 0.0f, false));
+  const size_t found = result.size();
+  if (found > 0) {
+    index[0] = result.indices()[0];
+    distance2[0] = (points_[index[0]] - q).squaredNorm();
+  }
+  if (found > 1) {
+    index[1] = result.indices()[1];
+    const double second = std::max(0.0, (points_[index[1]] - q).norm() - kSlack);  // float order: lower bound
+    distance2[1] = second * second;
+  } else {
+    index[1] = index[0];
+    distance2[1] = bound2;
+  }
+  if (found == 1 && distance2[0] >= bound2) return 0;  // only within the slack
+  if (found == 2 && distance2[1] >= bound2) {          // second only within the slack
+    distance2[1] = bound2;
+    return distance2[0] < bound2 ? 1 : 0;
+  }
+  return found;
 }
 
 ScanPoints VoxelMap::downsampled(double voxel_size) const {

@@ -22,7 +22,7 @@ IcpExplorerConfig parse_config(const Params& p, const Limits& limits, MapOutputS
 
   const Params icp = p.child("icp");
   icp.expect_only({"metric", "max_iterations", "max_correspondence_distance", "kernel_scale", "initial_kernel_scale",
-                   "convergence_translation", "convergence_rotation"});
+                   "coarse_stride", "convergence_translation", "convergence_rotation"});
   c.icp.metric = icp.text("metric", "point_to_plane", {"point_to_plane", "point_to_point"}) == "point_to_plane"
                      ? IcpMetric::kPointToPlane
                      : IcpMetric::kPointToPoint;
@@ -31,6 +31,7 @@ IcpExplorerConfig parse_config(const Params& p, const Limits& limits, MapOutputS
       icp.number("max_correspondence_distance", c.icp.max_correspondence_distance, Range{0.0, 50.0, true, false});
   c.icp.kernel_scale = icp.number("kernel_scale", c.icp.kernel_scale, Range{0.0, 10.0, true, false});
   c.icp.initial_kernel_scale = icp.number("initial_kernel_scale", c.icp.initial_kernel_scale, Range{0.0, 10.0, true, false});
+  c.icp.coarse_stride = static_cast<int>(icp.integer("coarse_stride", c.icp.coarse_stride, 1, 64));
   c.icp.convergence_translation = icp.number("convergence_translation", c.icp.convergence_translation, Range::open(0.0, 1.0));
   c.icp.convergence_rotation = icp.number("convergence_rotation", c.icp.convergence_rotation, Range::open(0.0, 1.0));
 

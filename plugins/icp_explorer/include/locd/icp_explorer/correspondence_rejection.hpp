@@ -72,6 +72,7 @@ class CorrespondenceRejector {
   double overlap_radius2_;
   double translation_bound_;
   double chord_per_metre_;
+  double sin_tilt_;
 };
 
 }  // namespace locd::icp_explorer

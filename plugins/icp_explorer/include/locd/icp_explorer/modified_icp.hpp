@@ -4,7 +4,8 @@
 // them: a model surface facing away from the scanner cannot be what it sees, so such pairs,
 // typically the far face of a thin wall, are skipped), (point-to-point elsewhere, or everywhere
 // when asked), and a Geman-McClure robust kernel whose scale halves from initial_kernel_scale
-// down to kernel_scale each time the pose settles at the current scale (coarse to fine).
+// down to kernel_scale each time the pose settles at the current scale (coarse to fine); while
+// the scale is coarse (above 4 x kernel_scale) only every coarse_stride-th data point is used.
 // Updates are left-multiplied: T <- exp(xi) T.
 #pragma once
 
@@ -29,6 +30,7 @@ struct IcpSettings {
   double max_correspondence_distance = 3.0;  // m, always applied (the classic ICP gate)
   double kernel_scale = 0.05;                // m, final Geman-McClure scale
   double initial_kernel_scale = 0.8;         // m, first iterations' scale
+  int coarse_stride = 4;                     // while the scale is above 4 x kernel_scale, every n-th data point
   double convergence_translation = 1e-4;     // m, stop when an update moves less ...
   double convergence_rotation = 1e-4;        // rad, ... and turns less than this
 };

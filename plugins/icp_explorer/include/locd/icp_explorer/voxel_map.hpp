@@ -39,6 +39,9 @@ class VoxelMap {
 
   // Nearest centroid to q: false when the map is empty.
   bool nearest(const Eigen::Vector3d& q, size_t& index, double& distance2) const;
+  // The two nearest centroids closer than sqrt(bound2), nearest first: returns how many there
+  // are (0, 1 or 2); distance2[k] of a missing one is bound2. A tight bound prunes the search.
+  size_t nearest_two_within(const Eigen::Vector3d& q, double bound2, size_t index[2], double distance2[2]) const;
 
   // The model thinned to one point per voxel of `voxel_size` (publishing, saving).
   ScanPoints downsampled(double voxel_size) const;
