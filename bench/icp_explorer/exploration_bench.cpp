@@ -45,8 +45,8 @@ void BM_Explore(benchmark::State& state, locd::bench::Strategy strategy) {
 }  // namespace
 
 BENCHMARK_CAPTURE(BM_Explore, next_best_view, locd::bench::Strategy::kNextBestView)
-    ->Arg(1)->Arg(2)->Arg(3)->Iterations(1)->Unit(benchmark::kSecond);
+    ->DenseRange(1, 5)->Iterations(1)->Unit(benchmark::kSecond);
 BENCHMARK_CAPTURE(BM_Explore, nearest_frontier, locd::bench::Strategy::kNearestFrontier)
-    ->Arg(1)->Arg(2)->Arg(3)->Iterations(1)->Unit(benchmark::kSecond);
+    ->DenseRange(1, 5)->Iterations(1)->Unit(benchmark::kSecond);
 
 BENCHMARK_MAIN();
