@@ -48,7 +48,9 @@ EmoiMarkovConfig parse_config(const Params& params) {
   params.expect_only({"map", "radii_m", "sigma_m", "min_likelihood", "min_coverage", "full_coverage",
                       "odometry_error", "min_blur_m", "update_distance_m", "heading_source", "use_initial_pose",
                       "base_height_m", "local_map_size_m", "local_map_memory_m", "local_map_refresh_m", "min_point_range_m", "cache",
-                      "belief_output_max_cells", "sensor_model", "match_resolution_m", "ground_offset_stddev_m"});
+                      "belief_output_max_cells", "sensor_model", "match_resolution_m", "ground_offset_stddev_m",
+                      "odometry_direction_error_rad", "distortion_nodes", "distortion_max_cells",
+                      "distortion_support_mass"});
   EmoiMarkovConfig config;
   config.map = params.required_text("map");
   config.radii_m = params.numbers("radii_m", config.radii_m, 0, Range::open(0.0, 1000.0));
@@ -68,6 +70,17 @@ EmoiMarkovConfig parse_config(const Params& params) {
   config.sensor_model = params.text("sensor_model", config.sensor_model, {"masked", "full_disk"});
   config.match_resolution_m = params.number("match_resolution_m", config.match_resolution_m, Range::open(0.0, 100.0));
   config.odometry_error = params.number("odometry_error", config.odometry_error, Range::closed(0.0, 1.0));
+  DistortionConfig& distortion = config.distortion;
+  distortion.scale_stddev = config.odometry_error;
+  distortion.direction_stddev_rad =
+      params.number("odometry_direction_error_rad", distortion.direction_stddev_rad, Range::closed(0.0, 1.0));
+  distortion.nodes = static_cast<int>(params.integer("distortion_nodes", distortion.nodes, 1, 15));
+  if (distortion.nodes % 2 == 0) {
+    params.fail("distortion_nodes", "= " + std::to_string(distortion.nodes) + " is even; allowed: odd, 1 to 15");
+  }
+  distortion.support_mass = params.number("distortion_support_mass", distortion.support_mass, {0.0, 1.0, true, false});
+  distortion.max_cells = static_cast<size_t>(
+      params.integer("distortion_max_cells", static_cast<long>(distortion.max_cells), 1, 1'000'000));
   config.min_blur_m = params.number("min_blur_m", config.min_blur_m, Range::closed(0.0, 100.0));
   config.update_distance_m = params.number("update_distance_m", config.update_distance_m, Range::open(0.0, 10000.0));
   config.heading_source = params.text("heading_source", config.heading_source, {"odometry", "imu"});
@@ -129,6 +142,9 @@ void EmoiMarkovLocalizer::configure(const PluginContext& context, const EmoiMark
     }
     grid_ = std::make_unique<MarkovGrid>(dsm.geometry, support);
   }
+  config_.distortion.scale_stddev = config.odometry_error;
+  hypotheses_ = distortion_hypotheses(config_.distortion.scale_stddev, config_.distortion.direction_stddev_rad,
+                                      config_.distortion.nodes);
   dsm_elevation_ = dsm.elevation;
   config_.local_map.resolution = dsm.geometry.resolution;
   local_map_ = std::make_unique<LocalElevationMap>(config_.local_map);
@@ -223,6 +239,7 @@ UpdateResult EmoiMarkovLocalizer::on_odometry(const Odometry& odometry) {
     travelled_m_ += step.norm();
   }
   last_odometry_ = odometry;
+  local_map_->record_pose(travelled_m_, odometry.pose.translation().head<2>());
   if (pending_set_pose_yaw_) {
     yaw_offset_ = normalize_angle(*pending_set_pose_yaw_ - yaw_of(odometry.pose.linear()));
     pending_set_pose_yaw_.reset();
@@ -274,6 +291,10 @@ UpdateResult EmoiMarkovLocalizer::after_insert(int64_t stamp_ns) {
   UpdateResult result;
   if (pending_travel_m_ < config_.update_distance_m) return result;
   // Table 1, action: shift by the odometry, blur by its error.
+  const bool hypotheses = matcher_ && hypotheses_.size() > 1;  // odometry_distortion.hpp
+  const cv::Mat_<float> previous_coarse = hypotheses ? matcher_->pool(grid_->belief()) : cv::Mat_<float>();
+  const Eigen::Vector2d shift = pending_shift_;
+  const double travel = pending_travel_m_;
   const double blur = std::hypot(config_.odometry_error * pending_travel_m_, config_.min_blur_m);
   const MotionUpdateReport motion = grid_->motion_update(pending_shift_, blur);
   if (motion.reset) ++belief_resets_;
@@ -287,16 +308,7 @@ UpdateResult EmoiMarkovLocalizer::after_insert(int64_t stamp_ns) {
   last_robot_emoi_.clear();
   cv::Mat_<float> log_likelihood, likelihood;
   if (matcher_) {
-    const double heading_offset = normalize_angle(map_heading() - yaw_of(last_odometry_->pose.linear()));
-    const cv::Mat_<float> patch = local_map_->robot_patch(position.head<2>(), heading_offset, matcher_->cell_m(),
-                                                          matcher_->patch_radius(), ground, travelled_m_);
-    last_match_ = matcher_->match(patch);
-    const MaskedEmoiMatcher::Match& match = *last_match_;
-    for (size_t i = 0; i < match.robot_emoi.size(); ++i) {
-      last_robot_emoi_.push_back({match.robot_emoi[i], match.coverage[i], match.observed[i]});
-    }
-    likelihood = matcher_->likelihood(match, config_.sensor, grid_->geometry().height, grid_->geometry().width,
-                                      &weights);
+    likelihood = masked_likelihood(previous_coarse, shift, travel, blur, weights);
   } else {
     last_robot_emoi_ = local_map_->emoi(position.head<2>(), ground, config_.radii_m, travelled_m_);
     EmoiObservation z;
@@ -324,6 +336,9 @@ UpdateResult EmoiMarkovLocalizer::after_insert(int64_t stamp_ns) {
     values.emplace_back("coverage_r" + r, last_robot_emoi_[i].coverage);
     values.emplace_back("weight_r" + r, weights[i]);
   }
+  values.emplace_back("distortion_cells", static_cast<double>(distortion_.cells));
+  values.emplace_back("distortion_scale", distortion_.scale);
+  values.emplace_back("distortion_direction_rad", distortion_.direction_rad);
   values.emplace_back("sensor_update_applied", sensor.applied ? 1.0 : 0.0);
   values.emplace_back("evidence", sensor.evidence);
   values.emplace_back("mass_lost", motion.mass_lost);
@@ -333,6 +348,35 @@ UpdateResult EmoiMarkovLocalizer::after_insert(int64_t stamp_ns) {
   values.emplace_back("sensor_updates", static_cast<double>(sensor_updates_));
   values.emplace_back("rejected_points", static_cast<double>(rejected_points_));
   return result;
+}
+
+cv::Mat_<float> EmoiMarkovLocalizer::masked_likelihood(const cv::Mat_<float>& previous_coarse,
+                                                       const Eigen::Vector2d& shift, double travel, double blur,
+                                                       std::vector<double>& weights) {
+  const Eigen::Vector3d position = last_odometry_->pose.translation();
+  const double ground = position.z() - config_.base_height_m;
+  const double heading_offset = normalize_angle(map_heading() - yaw_of(last_odometry_->pose.linear()));
+  auto patch_under = [&](const Eigen::Matrix2d& distortion) {
+    return local_map_->robot_patch(position.head<2>(), heading_offset, matcher_->cell_m(), matcher_->patch_radius(),
+                                   ground, travelled_m_, distortion);
+  };
+  last_match_ = matcher_->match(patch_under(Eigen::Matrix2d::Identity()));
+  const MaskedEmoiMatcher::Match& match = *last_match_;
+  for (size_t i = 0; i < match.robot_emoi.size(); ++i) {
+    last_robot_emoi_.push_back({match.robot_emoi[i], match.coverage[i], match.observed[i]});
+  }
+  cv::Mat_<float> coarse = matcher_->coarse_log_likelihood(match, config_.sensor, &weights);
+  cv::exp(coarse, coarse);
+  distortion_ = DistortionReport{};
+  if (!previous_coarse.empty()) {
+    // Where the prior holds (nearly) all its mass, marginalise the odometry's distortion since
+    // the last update: the local map rebuilt and the belief shifted under each hypothesis B.
+    const double residual = residual_blur_m(config_.distortion, blur, travel, config_.min_blur_m);
+    distortion_ = apply_distortion_hypotheses(*matcher_, patch_under, hypotheses_, config_.distortion, config_.sensor,
+                                              previous_coarse, matcher_->pool(grid_->belief()), shift, residual,
+                                              coarse);
+  }
+  return matcher_->to_fine(coarse, grid_->geometry().height, grid_->geometry().width);
 }
 
 PoseEstimate EmoiMarkovLocalizer::estimate(int64_t stamp_ns) const {

@@ -1,6 +1,8 @@
 #include "locd/emoi_markov/local_elevation_map.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 
 #include "locd/sdk/errors.hpp"
@@ -151,30 +153,79 @@ size_t LocalElevationMap::observed_cells(double travelled_m) const {
   return n;
 }
 
+void LocalElevationMap::record_pose(double travelled_m, const Eigen::Vector2d& odom_position) {
+  if (!trajectory_.empty() && travelled_m < trajectory_.back().first) trajectory_.clear();  // travel restarted
+  if (!trajectory_.empty() && travelled_m == trajectory_.back().first) {
+    trajectory_.back().second = odom_position;
+  } else {
+    trajectory_.emplace_back(travelled_m, odom_position);
+  }
+  // Keep what the remembered cells need (one record older than the memory), at most 1e5 records.
+  const double oldest = travelled_m - std::min(config_.memory_distance_m, 1e7);
+  while (trajectory_.size() > 2 && (trajectory_[1].first <= oldest || trajectory_.size() > 100'000)) {
+    trajectory_.pop_front();
+  }
+}
+
+Eigen::Vector2d LocalElevationMap::recorded_position(double travelled_m) const {
+  if (trajectory_.empty()) return Eigen::Vector2d::Zero();
+  if (travelled_m <= trajectory_.front().first) return trajectory_.front().second;
+  if (travelled_m >= trajectory_.back().first) return trajectory_.back().second;
+  const auto after = std::lower_bound(trajectory_.begin(), trajectory_.end(), travelled_m,
+                                      [](const auto& record, double t) { return record.first < t; });
+  const auto before = std::prev(after);
+  const double span = after->first - before->first;
+  const double f = span > 0 ? (travelled_m - before->first) / span : 1.0;
+  return before->second + f * (after->second - before->second);
+}
+
 cv::Mat_<float> LocalElevationMap::robot_patch(const Eigen::Vector2d& position, double heading_offset, double cell_m,
-                                               int radius_cells, double centre_elevation, double travelled_m) const {
+                                               int radius_cells, double centre_elevation, double travelled_m,
+                                               const Eigen::Matrix2d& distortion) const {
   const int side = 2 * radius_cells + 1;
-  cv::Mat_<float> patch(side, side, kUnknown);
+  cv::Mat_<double> sum(side, side, 0.0);
+  cv::Mat_<int> count(side, side, 0);
   const double res = config_.resolution;
-  const int span = std::max(1, static_cast<int>(std::lround(cell_m / res)));
-  const Eigen::Rotation2Dd map_to_odom(-heading_offset);
+  const Eigen::Rotation2Dd odom_to_map(heading_offset);
+  const Eigen::Matrix2d correction = distortion - Eigen::Matrix2d::Identity();
+  const bool distorted = correction.norm() > 0.0 && !trajectory_.empty();
+  // Local-map cells that can land in the patch: its circumscribed square plus the largest move.
+  double reach = 0.0;
+  if (distorted) {
+    for (const auto& record : trajectory_) reach = std::max(reach, (record.second - position).norm());
+  }
+  const double half = (radius_cells + 1) * cell_m * std::sqrt(2.0) + correction.norm() * reach + res;
+  const Eigen::Vector2i low = cell_of(position - Eigen::Vector2d::Constant(half), res) - origin_cell_;
+  const Eigen::Vector2i high = cell_of(position + Eigen::Vector2d::Constant(half), res) - origin_cell_;
+  // Cells written at the same travel share their correction: cache it per distinct mark.
+  float cached_seen = std::numeric_limits<float>::quiet_NaN();
+  Eigen::Vector2d cached_move = Eigen::Vector2d::Zero();
+  for (int r = std::max(0, low.y()); r <= std::min(cells_ - 1, high.y()); ++r) {
+    const float* e = elevation_.ptr<float>(r);
+    const float* s = seen_at_.ptr<float>(r);
+    for (int c = std::max(0, low.x()); c <= std::min(cells_ - 1, high.x()); ++c) {
+      if (!std::isfinite(e[c]) || travelled_m - s[c] > config_.memory_distance_m) continue;
+      Eigen::Vector2d relative = (origin_cell_ + Eigen::Vector2i(c, r)).cast<double>() * res +
+                                 Eigen::Vector2d::Constant(res / 2) - position;
+      if (distorted) {
+        if (!(s[c] == cached_seen)) {
+          cached_seen = s[c];
+          cached_move = correction * (recorded_position(s[c]) - position);
+        }
+        relative += cached_move;
+      }
+      const Eigen::Vector2d in_map = odom_to_map * relative;
+      const int j = static_cast<int>(std::lround(in_map.x() / cell_m)) + radius_cells;
+      const int i = static_cast<int>(std::lround(in_map.y() / cell_m)) + radius_cells;
+      if (i < 0 || j < 0 || i >= side || j >= side) continue;
+      sum(i, j) += e[c];
+      count(i, j) += 1;
+    }
+  }
+  cv::Mat_<float> patch(side, side, kUnknown);
   for (int i = 0; i < side; ++i) {
     for (int j = 0; j < side; ++j) {
-      const Eigen::Vector2d offset((j - radius_cells) * cell_m, (i - radius_cells) * cell_m);
-      const Eigen::Vector2d corner = position + map_to_odom * offset - Eigen::Vector2d::Constant(cell_m / 2);
-      const Eigen::Vector2i first = cell_of(corner + Eigen::Vector2d::Constant(res / 2), res) - origin_cell_;
-      double sum = 0.0;
-      int observed = 0;
-      for (int r = std::max(0, first.y()); r < std::min(cells_, first.y() + span); ++r) {
-        const float* e = elevation_.ptr<float>(r);
-        const float* s = seen_at_.ptr<float>(r);
-        for (int c = std::max(0, first.x()); c < std::min(cells_, first.x() + span); ++c) {
-          if (!std::isfinite(e[c]) || travelled_m - s[c] > config_.memory_distance_m) continue;
-          sum += e[c];
-          ++observed;
-        }
-      }
-      if (observed > 0) patch(i, j) = static_cast<float>(sum / observed - centre_elevation);
+      if (count(i, j) > 0) patch(i, j) = static_cast<float>(sum(i, j) / count(i, j) - centre_elevation);
     }
   }
   return patch;

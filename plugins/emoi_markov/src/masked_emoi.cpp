@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 
 #include <opencv2/imgproc.hpp>
 
@@ -43,6 +44,15 @@ MaskedEmoiMatcher::MaskedEmoiMatcher(const ElevationMap& dsm, std::vector<double
     }
   }
   ground_ = coarse_.elevation;
+  filled_ = cv::Mat_<float>(rows, cols, 0.0f);
+  valid_ = cv::Mat_<float>(rows, cols, 0.0f);
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      if (!std::isfinite(coarse_.elevation(r, c))) continue;
+      filled_(r, c) = coarse_.elevation(r, c);
+      valid_(r, c) = 1.0f;
+    }
+  }
   double max_radius = 0.0;
   for (double radius : radii_m_) max_radius = std::max(max_radius, radius);
   patch_radius_ = radius_in_cells(max_radius, coarse_.geometry.resolution);
@@ -76,22 +86,21 @@ MaskedEmoiMatcher::MaskedEmoiMatcher(const ElevationMap& dsm, std::vector<double
   cv::dft(valid, valid_spectrum_, 0, rows);
 }
 
-MaskedEmoiMatcher::Match MaskedEmoiMatcher::match(const cv::Mat_<float>& patch) const {
+MaskedEmoiMatcher::Match MaskedEmoiMatcher::robot_side(const cv::Mat_<float>& patch,
+                                                       std::vector<std::vector<Offset>>& disks) const {
   const int side = 2 * patch_radius_ + 1;
   if (patch.rows != side || patch.cols != side) {
     throw InputError("masked EMOI patch is " + std::to_string(patch.cols) + " x " + std::to_string(patch.rows) +
                      "; expected " + std::to_string(side) + " x " + std::to_string(side));
   }
   const double cell = coarse_.geometry.resolution;
-  const int rows = coarse_.geometry.height, cols = coarse_.geometry.width;
   Match out;
-  for (double radius_m : radii_m_) {
+  disks.assign(radii_m_.size(), {});
+  for (size_t k = 0; k < radii_m_.size(); ++k) {
+    const double radius_m = radii_m_[k];
     const int radius = radius_in_cells(radius_m, cell);
-    // Kernels flipped in both axes: the DFT convolves, the match correlates.
-    cv::Mat moment_kernel = cv::Mat::zeros(padded_rows_, padded_cols_, CV_64F);
-    cv::Mat mask_kernel = cv::Mat::zeros(padded_rows_, padded_cols_, CV_64F);
     double robot_sum = 0.0, moment_sum = 0.0;
-    size_t observed = 0, disk = 0;
+    size_t disk = 0;
     for (int dr = -radius; dr <= radius; ++dr) {
       for (int dc = -radius; dc <= radius; ++dc) {
         const int r2 = dr * dr + dc * dc;
@@ -99,23 +108,40 @@ MaskedEmoiMatcher::Match MaskedEmoiMatcher::match(const cv::Mat_<float>& patch) 
         ++disk;
         const float v = patch(patch_radius_ + dr, patch_radius_ + dc);
         if (!std::isfinite(v)) continue;
-        ++observed;
         const double r2_m = r2 * cell * cell;
         robot_sum += r2_m * v;
         moment_sum += r2_m;
-        moment_kernel.at<double>(patch_radius_ - dr, patch_radius_ - dc) = r2_m;
-        mask_kernel.at<double>(patch_radius_ - dr, patch_radius_ - dc) = 1.0;
+        disks[k].push_back({dr, dc, r2_m});
       }
     }
+    const size_t observed = disks[k].size();
     out.observed.push_back(observed);
     out.offset_gain.push_back(observed ? -moment_sum / static_cast<double>(observed) / (radius_m * radius_m) : 0.0);
     out.coverage.push_back(disk ? static_cast<double>(observed) / static_cast<double>(disk) : 0.0);
     out.robot_emoi.push_back(observed ? robot_sum / static_cast<double>(observed) / (radius_m * radius_m)
                                       : std::numeric_limits<double>::quiet_NaN());
+  }
+  return out;
+}
+
+MaskedEmoiMatcher::Match MaskedEmoiMatcher::match(const cv::Mat_<float>& patch) const {
+  std::vector<std::vector<Offset>> disks;
+  Match out = robot_side(patch, disks);
+  const int side = 2 * patch_radius_ + 1;
+  const int rows = coarse_.geometry.height, cols = coarse_.geometry.width;
+  for (size_t k = 0; k < radii_m_.size(); ++k) {
+    const double radius_m = radii_m_[k];
     cv::Mat_<float> layer(rows, cols, kNaN);
-    if (observed == 0) {
+    if (disks[k].empty()) {
       out.dsm_emoi.push_back(layer);
       continue;
+    }
+    // Kernels flipped in both axes: the DFT convolves, the match correlates.
+    cv::Mat moment_kernel = cv::Mat::zeros(padded_rows_, padded_cols_, CV_64F);
+    cv::Mat mask_kernel = cv::Mat::zeros(padded_rows_, padded_cols_, CV_64F);
+    for (const Offset& o : disks[k]) {
+      moment_kernel.at<double>(patch_radius_ - o.dr, patch_radius_ - o.dc) = o.r2_m;
+      mask_kernel.at<double>(patch_radius_ - o.dr, patch_radius_ - o.dc) = 1.0;
     }
     cv::Mat moment_spectrum, mask_spectrum, product;
     cv::dft(moment_kernel, moment_spectrum, 0, side);
@@ -148,12 +174,101 @@ MaskedEmoiMatcher::Match MaskedEmoiMatcher::match(const cv::Mat_<float>& patch) 
   return out;
 }
 
+MaskedEmoiMatcher::Match MaskedEmoiMatcher::match_at(const cv::Mat_<float>& patch,
+                                                     const std::vector<cv::Point>& cells) const {
+  std::vector<std::vector<Offset>> disks;
+  Match out = robot_side(patch, disks);
+  const int rows = coarse_.geometry.height, cols = coarse_.geometry.width;
+  const size_t radii = radii_m_.size();
+  // The disks are nested: one pass over the largest, each observed cell counted in the smallest
+  // radius holding it (its bucket), the buckets summed up afterwards.
+  std::vector<size_t> order(radii);
+  std::iota(order.begin(), order.end(), size_t{0});
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return radii_m_[a] < radii_m_[b]; });
+  const double cell = coarse_.geometry.resolution;
+  struct Term {
+    int dr, dc;
+    long linear;
+    double r2_m;
+    size_t bucket;
+  };
+  std::vector<Term> terms;
+  const std::vector<Offset>& largest = disks[order.back()];
+  for (const Offset& o : largest) {
+    size_t bucket = radii - 1;
+    for (size_t b = 0; b < radii; ++b) {
+      const int radius = radius_in_cells(radii_m_[order[b]], cell);
+      if (o.dr * o.dr + o.dc * o.dc < radius * radius) {
+        bucket = b;
+        break;
+      }
+    }
+    terms.push_back({o.dr, o.dc, static_cast<long>(o.dr) * cols + o.dc, o.r2_m, bucket});
+  }
+  const int n_cells = static_cast<int>(cells.size());
+  for (size_t k = 0; k < radii; ++k) out.dsm_emoi.push_back(cv::Mat_<float>(1, n_cells, kNaN));
+  const float* elevation = filled_.ptr<float>(0);
+  const float* valid = valid_.ptr<float>(0);
+  const int reach = patch_radius_;
+  std::vector<double> moment(radii), weight(radii), count(radii);
+  for (int i = 0; i < n_cells; ++i) {
+    const cv::Point& x = cells[i];
+    if (x.x < 0 || x.y < 0 || x.x >= cols || x.y >= rows) continue;
+    const double ground = ground_(x.y, x.x);
+    if (!std::isfinite(ground)) continue;
+    std::fill(moment.begin(), moment.end(), 0.0);
+    std::fill(weight.begin(), weight.end(), 0.0);
+    std::fill(count.begin(), count.end(), 0.0);
+    const long centre = static_cast<long>(x.y) * cols + x.x;
+    const bool inside = x.x >= reach && x.y >= reach && x.x + reach < cols && x.y + reach < rows;
+    for (const Term& t : terms) {
+      long index = centre + t.linear;
+      if (!inside) {
+        const int r = x.y + t.dr, c = x.x + t.dc;
+        if (r < 0 || c < 0 || r >= rows || c >= cols) continue;
+      }
+      moment[t.bucket] += t.r2_m * elevation[index];  // sum r^2 e over cells with data (e = 0 without)
+      weight[t.bucket] += t.r2_m * valid[index];      // sum r^2 over cells with data
+      count[t.bucket] += valid[index];
+    }
+    double m = 0.0, w = 0.0, n = 0.0;
+    for (size_t b = 0; b < radii; ++b) {
+      m += moment[b];
+      w += weight[b];
+      n += count[b];
+      const size_t k = order[b];
+      // eq. 7 on M: sum r^2 (e(x + k) - e(x)) / n / R^2
+      if (n > 0.5 && !disks[k].empty()) {
+        out.dsm_emoi[k](0, i) = static_cast<float>((m - ground * w) / n / (radii_m_[k] * radii_m_[k]));
+      }
+    }
+  }
+  return out;
+}
+
+cv::Mat_<float> MaskedEmoiMatcher::to_fine(const cv::Mat_<float>& coarse, int fine_rows, int fine_cols) const {
+  if (factor_ == 1) return coarse(cv::Rect(0, 0, fine_cols, fine_rows)).clone();
+  cv::Mat_<float> fine;
+  cv::resize(coarse, fine, cv::Size(coarse.cols * factor_, coarse.rows * factor_), 0, 0, cv::INTER_LINEAR);
+  return fine(cv::Rect(0, 0, fine_cols, fine_rows)).clone();
+}
+
+cv::Mat_<float> MaskedEmoiMatcher::pool(const cv::Mat_<float>& fine) const {
+  cv::Mat_<float> coarse(coarse_.geometry.height, coarse_.geometry.width, 0.0f);
+  for (int r = 0; r < fine.rows; ++r) {
+    const float* f = fine.ptr<float>(r);
+    float* c = coarse.ptr<float>(std::min(r / factor_, coarse.rows - 1));
+    for (int q = 0; q < fine.cols; ++q) c[std::min(q / factor_, coarse.cols - 1)] += f[q];
+  }
+  return coarse;
+}
+
 cv::Mat_<float> MaskedEmoiMatcher::coarse_log_likelihood(const Match& match, const SensorModelConfig& sensor,
                                                          std::vector<double>* weights_out) const {
-  const int rows = coarse_.geometry.height, cols = coarse_.geometry.width;
   if (match.robot_emoi.size() != radii_m_.size() || match.dsm_emoi.size() != radii_m_.size()) {
     throw InputError("masked EMOI match does not hold one value per radius");
   }
+  const int rows = match.dsm_emoi[0].rows, cols = match.dsm_emoi[0].cols;
   std::vector<double> weights;
   for (size_t i = 0; i < match.robot_emoi.size(); ++i) {
     weights.push_back(std::isfinite(match.robot_emoi[i]) ? coverage_weight(match.coverage[i], sensor) : 0.0);
@@ -216,10 +331,7 @@ cv::Mat_<float> MaskedEmoiMatcher::likelihood(const Match& match, const SensorMo
                                               int fine_cols, std::vector<double>* weights) const {
   cv::Mat_<float> coarse = coarse_log_likelihood(match, sensor, weights);
   cv::exp(coarse, coarse);
-  if (factor_ == 1) return coarse(cv::Rect(0, 0, fine_cols, fine_rows)).clone();
-  cv::Mat_<float> fine;
-  cv::resize(coarse, fine, cv::Size(coarse.cols * factor_, coarse.rows * factor_), 0, 0, cv::INTER_LINEAR);
-  return fine(cv::Rect(0, 0, fine_cols, fine_rows)).clone();
+  return to_fine(coarse, fine_rows, fine_cols);
 }
 
 }  // namespace locd::emoi

@@ -69,6 +69,11 @@ TEST(EmoiMarkovConfig, EveryBadParameterIsNamedWithWhatIsAllowed) {
   EXPECT_NE(e.find("full_coverage"), std::string::npos) << e;
   e = config_error(localizer, context, "plugin: emoi_markov\nparams:\n  radii_m: [5]\n");
   EXPECT_NE(e.find("map"), std::string::npos) << e;
+  e = config_error(localizer, context, "plugin: emoi_markov\nparams:\n  map: small.tif\n  distortion_nodes: 4\n");
+  EXPECT_NE(e.find("emoi_markov.distortion_nodes"), std::string::npos) << e;
+  EXPECT_NE(e.find("odd"), std::string::npos) << e;
+  e = config_error(localizer, context, "plugin: emoi_markov\nparams:\n  map: small.tif\n  distortion_support_mass: 0\n");
+  EXPECT_NE(e.find("distortion_support_mass"), std::string::npos) << e;
 }
 
 TEST(EmoiMarkovConfig, MapsResolveOnlyInsideTheMapDirectoriesAndAreBounded) {
@@ -178,7 +183,7 @@ TEST(EmoiMarkovRun, ShortDriveOnASmallWorld) {
   localizer.set_pose(start);
   double last_error = 1e9;
   std::vector<double> truth_probability;
-  size_t updates = 0;
+  size_t updates = 0, with_hypotheses = 0;
   sim::simulate_measurements(scenario, run, 11, [&](const Measurement& m, const Eigen::Isometry3d& truth) {
     const auto before = localizer.sensor_updates();
     const UpdateResult out = localizer.update(m);
@@ -188,6 +193,15 @@ TEST(EmoiMarkovRun, ShortDriveOnASmallWorld) {
     EXPECT_TRUE(out.grid.has_value());
     EXPECT_TRUE(out.estimate->covariance.allFinite());
     EXPECT_NEAR(cv::sum(localizer.grid().belief())[0], 1.0, 1e-4);
+    // The belief starts concentrated (initial pose): the distortion hypotheses run on its support.
+    const DistortionReport& distortion = localizer.last_distortion();
+    if (distortion.cells > 0) {
+      ++with_hypotheses;
+      double total = 0.0;
+      for (double p : distortion.posterior) total += p;
+      EXPECT_NEAR(total, 1.0, 1e-9);
+      EXPECT_EQ(distortion.posterior.size(), 25u);
+    }
     // Belief mass within 2 m of the truth.
     const auto& g = localizer.grid().geometry();
     const auto& belief = localizer.grid().belief();
@@ -200,6 +214,7 @@ TEST(EmoiMarkovRun, ShortDriveOnASmallWorld) {
     return false;
   });
   EXPECT_GE(updates, 3u);
+  EXPECT_GE(with_hypotheses, 1u);
   ASSERT_FALSE(truth_probability.empty());
   EXPECT_GT(truth_probability.back(), 0.1);  // a uniform belief would hold 12.6 / 3600 = 0.0035
   EXPECT_LT(last_error, 2.0);

@@ -13,6 +13,7 @@
 #include "locd/emoi_markov/local_elevation_map.hpp"
 #include "locd/emoi_markov/markov_grid.hpp"
 #include "locd/emoi_markov/masked_emoi.hpp"
+#include "locd/emoi_markov/odometry_distortion.hpp"
 #include "locd/sdk/plugin.hpp"
 
 namespace locd::emoi {
@@ -23,7 +24,8 @@ struct EmoiMarkovConfig {
   SensorModelConfig sensor;
   std::string sensor_model = "masked";             // "masked" (observed cells only) or "full_disk" (paper)
   double match_resolution_m = 0.5;                 // matching grid of the masked model
-  double odometry_error = 0.1;                     // blur stddev per metre travelled
+  double odometry_error = 0.1;                     // blur stddev per metre travelled; also the scale error
+  DistortionConfig distortion;                     // odometry distortion hypotheses (scale_stddev = odometry_error)
   double min_blur_m = 0.0;                         // added (in quadrature) to every motion blur
   double update_distance_m = 10.0;                 // travel between sensor updates
   std::string heading_source = "odometry";         // "odometry" (+ offset from set_pose) or "imu"
@@ -50,6 +52,7 @@ class EmoiMarkovLocalizer : public Localizer {
   const MarkovGrid& grid() const { return *grid_; }
   const LocalElevationMap& local_map() const { return *local_map_; }
   const EmoiMarkovConfig& config() const { return config_; }
+  const DistortionReport& last_distortion() const { return distortion_; }
   size_t sensor_updates() const { return sensor_updates_; }
   bool layers_from_cache() const { return layers_from_cache_; }
   const EmoiLayers* full_disk_layers() const { return layers_ ? &*layers_ : nullptr; }
@@ -63,6 +66,14 @@ class EmoiMarkovLocalizer : public Localizer {
   UpdateResult on_scan(const LaserScan& scan);
   UpdateResult on_cloud(const PointCloud& cloud);
   UpdateResult after_insert(int64_t stamp_ns);
+  // The masked likelihood on the DSM grid; with distortion hypotheses, L_mix where the prior
+  // holds its mass (odometry_distortion.hpp). previous_coarse: the belief before the motion
+  // update on the matching grid (empty: no hypotheses); shift, travel, blur: that motion update's.
+  cv::Mat_<float> masked_likelihood(const cv::Mat_<float>& previous_coarse, const Eigen::Vector2d& shift,
+                                    double travel, double blur, std::vector<double>& weights);
+  // The masked likelihood on the DSM grid; with distortion hypotheses, L_mix where the prior
+  // holds its mass (odometry_distortion.hpp). previous: the belief before the motion update.
+  cv::Mat_<float> masked_likelihood(const cv::Mat_<float>& previous_coarse, std::vector<double>& weights);
   Eigen::Isometry3d base_in_odom() const;
   double map_heading() const;
   PoseEstimate estimate(int64_t stamp_ns) const;
@@ -75,6 +86,8 @@ class EmoiMarkovLocalizer : public Localizer {
   std::optional<EmoiLayers> layers_;               // full_disk model
   std::unique_ptr<MaskedEmoiMatcher> matcher_;     // masked model
   std::optional<MaskedEmoiMatcher::Match> last_match_;
+  std::vector<DistortionHypothesis> hypotheses_;
+  DistortionReport distortion_;                    // the last sensor update's
   cv::Mat_<float> dsm_elevation_;
   bool layers_from_cache_ = false;
 

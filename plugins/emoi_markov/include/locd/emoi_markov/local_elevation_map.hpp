@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <deque>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -63,11 +64,23 @@ class LocalElevationMap {
   std::vector<PointEmoi> emoi(const Eigen::Vector2d& position, double centre_elevation,
                               const std::vector<double>& radii_m, double travelled_m) const;
 
+  // The odometry position (odom frame) at a travel mark; kept for the cells the map still
+  // remembers, so a cell can be re-placed under a hypothesis of the odometry's distortion.
+  void record_pose(double travelled_m, const Eigen::Vector2d& odom_position);
+  // The recorded position at a travel mark (linear between records, clamped at the ends).
+  Eigen::Vector2d recorded_position(double travelled_m) const;
+
   // The robot-centred patch the masked match reads: (2 radius_cells + 1)^2 cells of cell_m,
   // aligned with the map frame (odom rotated by heading_offset = map yaw - odom yaw), each the
-  // highest observed elevation in its square (eq. 5 again) minus centre_elevation; NaN unobserved.
+  // mean observed elevation of the local-map cells falling into it, minus centre_elevation; NaN
+  // unobserved. Each local-map cell is placed relative to the robot under the hypothesis that the
+  // true displacement is `distortion` times the odometry's (a scale-rotation, so it commutes with
+  // the heading rotation): a cell written at travel t moves from p - position to
+  //   (p - position) + (distortion - I) (P_odom(t) - position).
+  // With the identity it is the local map as odometry placed it.
   cv::Mat_<float> robot_patch(const Eigen::Vector2d& position, double heading_offset, double cell_m,
-                              int radius_cells, double centre_elevation, double travelled_m) const;
+                              int radius_cells, double centre_elevation, double travelled_m,
+                              const Eigen::Matrix2d& distortion = Eigen::Matrix2d::Identity()) const;
 
   // Observed elevations (NaN where unknown or forgotten) and the grid geometry (odom frame).
   cv::Mat_<float> observed(double travelled_m) const;
@@ -81,6 +94,7 @@ class LocalElevationMap {
   bool anchored_ = false;
   cv::Mat_<float> elevation_;          // NaN = never seen
   cv::Mat_<float> seen_at_;            // travel (m) when last written
+  std::deque<std::pair<double, Eigen::Vector2d>> trajectory_;  // (travel, odom position), increasing travel
 };
 
 }  // namespace locd::emoi

@@ -38,25 +38,43 @@ class MaskedEmoiMatcher {
     std::vector<double> coverage;             // per radius, observed fraction of the disk
     std::vector<size_t> observed;             // per radius, |M|
     std::vector<double> offset_gain;          // per radius, d EMOI / d(centre elevation) = -mean r^2 / R^2 over M
-    std::vector<cv::Mat_<float>> dsm_emoi;    // per radius, EMOI_M(x) on the matching grid
+    std::vector<cv::Mat_<float>> dsm_emoi;    // per radius, EMOI_M(x) on the matching grid (or 1 x N at listed cells)
   };
   // patch: map-aligned, centred on the robot, matching-grid cells, value = elevation minus the
   // robot's ground elevation, NaN = not observed. Size (2 patch_radius + 1)^2.
   Match match(const cv::Mat_<float>& patch) const;
+  // The same EMOI_M at the listed matching-grid cells only (x = column, y = row), by direct sums
+  // over M: dsm_emoi[radius] is 1 x cells.size(). For a few thousand cells this is cheaper than
+  // the DFTs of match().
+  Match match_at(const cv::Mat_<float>& patch, const std::vector<cv::Point>& cells) const;
 
-  // log p(z|x) on the matching grid, floored (cells without data get the floor).
+  // log p(z|x) for every entry of match.dsm_emoi (the matching grid, or the listed cells), floored
+  // (cells without data get the floor).
   cv::Mat_<float> coarse_log_likelihood(const Match& match, const SensorModelConfig& sensor,
                                         std::vector<double>* weights = nullptr) const;
   // p(z|x) on the DSM (belief) grid: exp on the matching grid, then bilinear interpolation.
   cv::Mat_<float> likelihood(const Match& match, const SensorModelConfig& sensor, int fine_rows, int fine_cols,
                              std::vector<double>* weights = nullptr) const;
+  // A matching-grid field (likelihood) interpolated bilinearly to the DSM grid.
+  cv::Mat_<float> to_fine(const cv::Mat_<float>& coarse, int fine_rows, int fine_cols) const;
+  // A DSM-grid field (belief) summed into matching-grid cells (mass is kept).
+  cv::Mat_<float> pool(const cv::Mat_<float>& fine) const;
 
  private:
+  // The robot side of eq. 7 on M (robot_emoi, coverage, observed, offset_gain) and, per radius,
+  // the observed cells of its disk (row offset, column offset, r^2 in m^2).
+  struct Offset {
+    int dr, dc;
+    double r2_m;
+  };
+  Match robot_side(const cv::Mat_<float>& patch, std::vector<std::vector<Offset>>& disks) const;
+
   std::vector<double> radii_m_;
   int factor_ = 1;
   int patch_radius_ = 1;
   ElevationMap coarse_;            // max-pooled
-  cv::Mat_<float> ground_;         // min-pooled centre elevations
+  cv::Mat_<float> ground_;         // centre elevations (the pooled DSM)
+  cv::Mat_<float> filled_, valid_; // pooled DSM with 0 where no data, and 1 where data (direct sums)
   double reference_ = 0.0;
   int padded_rows_ = 0, padded_cols_ = 0;
   cv::Mat elevation_spectrum_, valid_spectrum_;

@@ -1,0 +1,282 @@
+// The odometry distortion marginalised in the masked sensor model: the local map rebuilt under a
+// hypothesis, the hypothesis grid, the mixture likelihood against its direct formula, the direct
+// masked sums against the DFT match.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include <Eigen/Geometry>
+
+#include "locd/emoi_markov/local_elevation_map.hpp"
+#include "locd/emoi_markov/masked_emoi.hpp"
+#include "locd/emoi_markov/odometry_distortion.hpp"
+#include "locd/sdk/errors.hpp"
+
+namespace {
+
+using namespace locd::emoi;
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+Eigen::Matrix2d scale_rotation(double scale, double angle) {
+  return scale * Eigen::Rotation2Dd(angle).toRotationMatrix();
+}
+
+// A robot drives straight; odometry reports A times every true displacement (scale and
+// direction error). Isolated points are seen along the way and placed with the pose of the
+// moment, once with odometry and once with the true pose. Rebuilt under B = A^-1, the odometry
+// map's patch equals the true-pose map's patch cell for cell; as odometry placed it, it does not.
+TEST(DistortedLocalMap, PatchRebuiltUnderTheTrueDistortionEqualsTheTruePosePatch) {
+  LocalMapConfig config;
+  config.resolution = 0.1;
+  config.size_m = 60.0;
+  LocalElevationMap odometry_map(config), true_map(config);
+  const Eigen::Matrix2d A = scale_rotation(1.1, 0.08);
+  const Eigen::Vector2d direction(std::cos(0.3), std::sin(0.3));
+  const double length = 10.0, cell_m = 0.5;
+  const int radius_cells = 30;
+  auto true_position = [&](double t) { return Eigen::Vector2d(t * direction); };
+  odometry_map.follow(Eigen::Vector2d::Zero());
+  true_map.follow(Eigen::Vector2d::Zero());
+  // Points at patch-cell centres around the final true pose, each with its own height.
+  const std::vector<Eigen::Vector2i> offsets{{-20, 3}, {-10, -8}, {5, 12}, {15, -2}, {0, -18},
+                                             {-25, -5}, {22, 9}, {-4, 26}, {8, -24}, {-16, 16}};
+  const Eigen::Vector2d final_true = true_position(length);
+  for (int step = 0; step <= 20; ++step) {
+    const double t = step * 0.5;
+    const Eigen::Vector2d truth = true_position(t), odometry = A * truth;
+    odometry_map.record_pose(t, odometry);
+    true_map.record_pose(t, truth);
+    for (size_t j = 0; j < offsets.size(); ++j) {
+      if (static_cast<int>(j * 2) != step) continue;  // point j seen once, at travel j metres
+      const Eigen::Vector2d point = final_true + offsets[j].cast<double>() * cell_m;
+      const Eigen::Vector2d seen_from_robot = point - truth;  // what the laser measures
+      const double height = 1.0 + 0.25 * static_cast<double>(j);
+      ASSERT_TRUE(odometry_map.insert_point({(odometry + seen_from_robot).x(), (odometry + seen_from_robot).y(), height}, t));
+      ASSERT_TRUE(true_map.insert_point({point.x(), point.y(), height}, t));
+    }
+  }
+  const Eigen::Vector2d final_odometry = A * final_true;
+  const cv::Mat_<float> expected = true_map.robot_patch(final_true, 0.0, cell_m, radius_cells, 0.5, length);
+  const cv::Mat_<float> rebuilt =
+      odometry_map.robot_patch(final_odometry, 0.0, cell_m, radius_cells, 0.5, length, A.inverse());
+  const cv::Mat_<float> as_placed = odometry_map.robot_patch(final_odometry, 0.0, cell_m, radius_cells, 0.5, length);
+  int observed = 0, misplaced = 0;
+  for (int i = 0; i < expected.rows; ++i) {
+    for (int j = 0; j < expected.cols; ++j) {
+      ASSERT_EQ(std::isfinite(expected(i, j)), std::isfinite(rebuilt(i, j))) << "cell " << i << ", " << j;
+      if (!std::isfinite(expected(i, j))) continue;
+      ++observed;
+      EXPECT_FLOAT_EQ(rebuilt(i, j), expected(i, j));
+      if (!(as_placed(i, j) == expected(i, j))) ++misplaced;
+    }
+  }
+  EXPECT_EQ(observed, static_cast<int>(offsets.size()));
+  EXPECT_GE(misplaced, 5);  // the old points are 0.5 - 1.3 m off as odometry placed them
+  // The identity rebuilds the map as odometry placed it.
+  const cv::Mat_<float> identity = odometry_map.robot_patch(final_odometry, 0.0, cell_m, radius_cells, 0.5, length,
+                                                            Eigen::Matrix2d::Identity());
+  for (int i = 0; i < identity.rows; ++i)
+    for (int j = 0; j < identity.cols; ++j)
+      EXPECT_TRUE(identity(i, j) == as_placed(i, j) || (std::isnan(identity(i, j)) && std::isnan(as_placed(i, j))));
+}
+
+TEST(DistortedLocalMap, RecordedPositionsInterpolateAndClamp) {
+  LocalMapConfig config;
+  config.memory_distance_m = 5.0;
+  LocalElevationMap map(config);
+  for (int k = 0; k <= 20; ++k) map.record_pose(k, Eigen::Vector2d(2.0 * k, -k));
+  EXPECT_NEAR((map.recorded_position(18.25) - Eigen::Vector2d(36.5, -18.25)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((map.recorded_position(100.0) - Eigen::Vector2d(40.0, -20.0)).norm(), 0.0, 1e-12);
+  // Records before the memory (travel 20 - 5 = 15) are dropped: earlier marks clamp to the one at 15.
+  EXPECT_NEAR((map.recorded_position(0.0) - Eigen::Vector2d(30.0, -15.0)).norm(), 0.0, 1e-12);
+}
+
+TEST(DistortionHypotheses, GridWeightsSumToOneAndFollowTheGaussian) {
+  const auto hypotheses = distortion_hypotheses(0.1, 0.05, 5);
+  ASSERT_EQ(hypotheses.size(), 25u);
+  double total = 0.0;
+  for (const auto& h : hypotheses) {
+    total += h.weight;
+    EXPECT_LT((h.transform - scale_rotation(h.scale, h.direction_rad)).norm(), 1e-12);
+    const double us = (h.scale - 1.0) / 0.1, ud = h.direction_rad / 0.05;
+    EXPECT_NEAR(h.weight / hypotheses[12].weight, std::exp(-0.5 * (us * us + ud * ud)), 1e-12);
+  }
+  EXPECT_NEAR(total, 1.0, 1e-12);
+  EXPECT_LT((hypotheses[12].transform - Eigen::Matrix2d::Identity()).norm(), 1e-12);  // the centre
+  EXPECT_NEAR(hypotheses.front().scale, 0.8, 1e-12);
+  EXPECT_NEAR(hypotheses.back().direction_rad, 0.1, 1e-12);
+  const auto single = distortion_hypotheses(0.1, 0.1, 1);
+  ASSERT_EQ(single.size(), 1u);
+  EXPECT_DOUBLE_EQ(single[0].weight, 1.0);
+  EXPECT_DOUBLE_EQ(distortion_grid_variance(1), 0.0);
+  const double w1 = std::exp(-0.5), w2 = std::exp(-2.0);
+  EXPECT_NEAR(distortion_grid_variance(5), (2 * w1 + 8 * w2) / (1 + 2 * w1 + 2 * w2), 1e-12);
+  EXPECT_THROW(distortion_hypotheses(0.1, 0.1, 4), locd::ConfigError);
+}
+
+// L_mix = sum_b w_b prior_b(x) l_b(x) / sum_b w_b prior_b(x), prior_b the previous belief moved
+// by B_b shift (bilinear, no blur here): computed by splatting every source cell by hand.
+TEST(DistortionMixture, EqualsTheDirectFormula) {
+  cv::Mat_<float> previous(40, 40, 0.0f);
+  previous(10, 12) = 0.5f;
+  previous(11, 12) = 0.2f;
+  previous(20, 25) = 0.3f;
+  const Eigen::Vector2d shift(4.0, -2.0);
+  std::vector<DistortionHypothesis> hypotheses;
+  for (auto [scale, weight] : {std::pair{1.0, 0.4}, {1.25, 0.2}, {0.75, 0.3}, {0.5, 0.1}}) {
+    DistortionHypothesis h;
+    h.scale = scale;
+    h.transform = scale * Eigen::Matrix2d::Identity();
+    h.weight = weight;
+    hypotheses.push_back(h);
+  }
+  std::vector<cv::Point> cells;
+  for (int r = 4; r < 24; ++r)
+    for (int c = 10; c < 32; ++c) cells.emplace_back(c, r);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> unit(0.01f, 1.0f);
+  std::vector<std::vector<float>> likelihoods(hypotheses.size(), std::vector<float>(cells.size()));
+  for (auto& l : likelihoods)
+    for (auto& v : l) v = unit(rng);
+  std::vector<double> posterior;
+  const auto mixed = mixture_likelihood(previous, shift, hypotheses, 0.0, cells, likelihoods, &posterior);
+  auto tent = [](double d) { return std::max(0.0, 1.0 - std::abs(d)); };
+  int with_prior = 0;
+  for (size_t i = 0; i < cells.size(); ++i) {
+    double numerator = 0.0, denominator = 0.0, mean = 0.0;
+    for (size_t b = 0; b < hypotheses.size(); ++b) {
+      const Eigen::Vector2d t = hypotheses[b].transform * shift;
+      double prior = 0.0;
+      for (int r = 0; r < previous.rows; ++r)
+        for (int c = 0; c < previous.cols; ++c)
+          if (previous(r, c) > 0) prior += previous(r, c) * tent(cells[i].x - c - t.x()) * tent(cells[i].y - r - t.y());
+      numerator += hypotheses[b].weight * prior * likelihoods[b][i];
+      denominator += hypotheses[b].weight * prior;
+      mean += hypotheses[b].weight * likelihoods[b][i];
+    }
+    const double expected = denominator > 1e-30 ? numerator / denominator : mean;
+    with_prior += denominator > 1e-30 ? 1 : 0;
+    EXPECT_NEAR(mixed[i], expected, 1e-5 * expected) << "cell " << cells[i];
+  }
+  EXPECT_GE(with_prior, 8);
+  double total = 0.0;
+  for (double p : posterior) total += p;
+  EXPECT_NEAR(total, 1.0, 1e-9);
+  // A likelihood that does not depend on the hypothesis comes out unchanged.
+  std::vector<std::vector<float>> same(hypotheses.size(), likelihoods[0]);
+  const auto unchanged = mixture_likelihood(previous, shift, hypotheses, 1.5, cells, same);
+  for (size_t i = 0; i < cells.size(); ++i) EXPECT_NEAR(unchanged[i], likelihoods[0][i], 1e-6);
+}
+
+TEST(DistortionMixture, CellsHoldingMassAreTheLargestAndBounded) {
+  cv::Mat_<float> belief(10, 10, 0.0f);
+  belief(2, 3) = 0.5f;
+  belief(7, 1) = 0.3f;
+  belief(5, 5) = 0.15f;
+  belief(0, 9) = 0.05f;
+  const auto cells = cells_holding_mass(belief, 0.9, 10);
+  ASSERT_EQ(cells.size(), 3u);
+  EXPECT_EQ(cells[0], cv::Point(3, 2));
+  EXPECT_EQ(cells[1], cv::Point(1, 7));
+  EXPECT_EQ(cells[2], cv::Point(5, 5));
+  EXPECT_EQ(cells_holding_mass(belief, 1.0, 10).size(), 4u);
+  EXPECT_TRUE(cells_holding_mass(belief, 0.9, 2).empty());                      // needs 3
+  EXPECT_TRUE(cells_holding_mass(cv::Mat_<float>(10, 10, 0.01f), 0.5, 20).empty());  // needs 50
+}
+
+ElevationMap rough_map(int side, double resolution, unsigned seed, double nodata) {
+  ElevationMap map;
+  map.geometry.resolution = resolution;
+  map.geometry.width = map.geometry.height = side;
+  map.elevation = cv::Mat_<float>(side, side);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> phase(0.0, 6.28), unit(0.0, 1.0);
+  const double a = phase(rng), b = phase(rng);
+  for (int r = 0; r < side; ++r)
+    for (int c = 0; c < side; ++c)
+      map.elevation(r, c) = static_cast<float>(3.0 * std::sin(0.11 * c + a) * std::cos(0.07 * r + b) + 0.5 * unit(rng) +
+                                               (unit(rng) < nodata ? std::nan("") : 0.0));
+  return map;
+}
+
+TEST(DistortionMixture, DirectMaskedSumsEqualTheDftMatch) {
+  const ElevationMap map = rough_map(100, 0.5, 7, 0.1);
+  MaskedEmoiMatcher matcher(map, {2.0, 6.0, 4.0}, 0.5);
+  const int half = matcher.patch_radius();
+  cv::Mat_<float> patch(2 * half + 1, 2 * half + 1, kNaN);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int i = 0; i < patch.rows; ++i)
+    for (int j = 0; j < patch.cols; ++j)
+      if (i > half / 2 || unit(rng) < 0.3) patch(i, j) = static_cast<float>(2.0 * unit(rng) - 1.0);
+  const std::vector<cv::Point> cells{{50, 50}, {0, 0}, {99, 3}, {5, 97}, {60, 12}, {88, 88}, {-1, 4}};
+  const auto full = matcher.match(patch);
+  const auto at = matcher.match_at(patch, cells);
+  int compared = 0;
+  for (size_t k = 0; k < 3; ++k) {
+    EXPECT_DOUBLE_EQ(at.robot_emoi[k], full.robot_emoi[k]);
+    EXPECT_DOUBLE_EQ(at.coverage[k], full.coverage[k]);
+    ASSERT_EQ(at.dsm_emoi[k].cols, static_cast<int>(cells.size()));
+    for (size_t i = 0; i < cells.size(); ++i) {
+      const cv::Point& x = cells[i];
+      if (x.x < 0 || x.y < 0 || x.x >= 100 || x.y >= 100) {
+        EXPECT_TRUE(std::isnan(at.dsm_emoi[k](0, static_cast<int>(i))));
+        continue;
+      }
+      const float dft = full.dsm_emoi[k](x.y, x.x);
+      const float direct = at.dsm_emoi[k](0, static_cast<int>(i));
+      ASSERT_EQ(std::isfinite(dft), std::isfinite(direct)) << "radius " << k << " cell " << x;
+      if (!std::isfinite(dft)) continue;
+      EXPECT_NEAR(direct, dft, 1e-4 * std::max(1.0f, std::abs(dft))) << "radius " << k << " cell " << x;
+      ++compared;
+    }
+  }
+  EXPECT_GE(compared, 12);
+}
+
+// When the rebuilt local map does not depend on the hypothesis, marginalising changes nothing:
+// L_mix equals the plain likelihood on the prior's support, and nothing else is touched.
+TEST(DistortionMixture, HypothesisFreeLocalMapKeepsThePlainLikelihood) {
+  const ElevationMap map = rough_map(120, 0.5, 11, 0.0);
+  MaskedEmoiMatcher matcher(map, {3.0, 6.0}, 0.5);
+  const int half = matcher.patch_radius();
+  cv::Mat_<float> patch(2 * half + 1, 2 * half + 1, kNaN);
+  for (int i = -half; i <= half; ++i)
+    for (int j = -half; j <= half; ++j)
+      if (i > -3) patch(i + half, j + half) = map.elevation(60 + i, 55 + j) - map.elevation(60, 55);
+  SensorModelConfig sensor;
+  sensor.min_coverage = 0.05;
+  const auto match = matcher.match(patch);
+  cv::Mat_<float> plain = matcher.coarse_log_likelihood(match, sensor);
+  cv::exp(plain, plain);
+  cv::Mat_<float> previous(120, 120, 0.0f), prior(120, 120, 0.0f);
+  previous(58, 50) = 1.0f;
+  for (int r = 55; r < 66; ++r)
+    for (int c = 50; c < 61; ++c) prior(r, c) = 1.0f / 121.0f;
+  DistortionConfig config;
+  const auto hypotheses = distortion_hypotheses(0.1, 0.1, 5);
+  cv::Mat_<float> likelihood = plain.clone();
+  const auto report = apply_distortion_hypotheses(
+      matcher, [&](const Eigen::Matrix2d&) { return patch; }, hypotheses, config, sensor, previous, prior,
+      Eigen::Vector2d(2.5, 1.0), 1.0, likelihood);
+  EXPECT_EQ(report.cells, 121u);
+  double total = 0.0;
+  for (double p : report.posterior) total += p;
+  EXPECT_NEAR(total, 1.0, 1e-9);
+  for (int r = 0; r < 120; ++r)
+    for (int c = 0; c < 120; ++c)
+      ASSERT_NEAR(likelihood(r, c), std::max(plain(r, c), static_cast<float>(sensor.min_likelihood)),
+                  2e-5 * plain(r, c) + 1e-7) << r << ", " << c;
+  // A prior spread wider than max_cells: nothing runs, nothing changes.
+  config.max_cells = 50;
+  cv::Mat_<float> untouched = plain.clone();
+  EXPECT_EQ(apply_distortion_hypotheses(matcher, [&](const Eigen::Matrix2d&) { return patch; }, hypotheses, config,
+                                        sensor, previous, prior, Eigen::Vector2d(2.5, 1.0), 1.0, untouched)
+                .cells,
+            0u);
+  EXPECT_EQ(cv::norm(untouched, plain, cv::NORM_INF), 0.0);
+}
+
+}  // namespace
