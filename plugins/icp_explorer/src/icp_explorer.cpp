@@ -84,7 +84,10 @@ ScanOutcome IcpExplorer::add_scan(const PointCloud& cloud) {
   }
 
   start = std::chrono::steady_clock::now();
-  model_.insert(transformed(dense, out.T_map_base), (out.T_map_base * cloud.sensor_pose).translation());
+  const ScanPoints dense_in_map = transformed(dense, out.T_map_base);
+  const Eigen::Vector3d viewpoint = (out.T_map_base * cloud.sensor_pose).translation();
+  if (config_.carve_free_space) out.carved_voxels = model_.carve(dense_in_map.points, viewpoint, config_.carve_min_rays);
+  model_.insert(dense_in_map, viewpoint);
   out.model_update_ms = ms_since(start);
 
   const Eigen::Vector3d scanner = (out.T_map_base * cloud.sensor_pose).translation();

@@ -49,6 +49,7 @@ void VoxelMap::clear() {
   index_.clear();
   sums_.clear();
   counts_.clear();
+  scans_.clear();
   intensity_sums_.clear();
   intensity_count_.clear();
   points_.clear();
@@ -71,6 +72,7 @@ void VoxelMap::insert(const ScanPoints& scan, const std::optional<Eigen::Vector3
     if (inserted) {
       sums_.push_back(Eigen::Vector3d::Zero());
       counts_.push_back(0);
+      scans_.push_back(0);
       intensity_sums_.push_back(0.0);
       intensity_count_.push_back(0);
       points_.push_back(p);
@@ -89,10 +91,93 @@ void VoxelMap::insert(const ScanPoints& scan, const std::optional<Eigen::Vector3
     if (!was_touched[v]) {
       was_touched[v] = 1;
       touched.push_back(v);
+      if (scans_[v] < std::numeric_limits<uint16_t>::max()) ++scans_[v];
     }
   }
   tree_ = std::make_unique<KdTree>(points_);
   refresh_normals(touched, viewpoint);
+}
+
+size_t VoxelMap::carve(const std::vector<Eigen::Vector3d>& ray_ends, const Eigen::Vector3d& viewpoint, int min_rays,
+                       double end_margin) {
+  if (points_.empty() || !viewpoint.allFinite()) return 0;
+  std::vector<uint16_t> rays_through(points_.size(), 0);
+  for (const Eigen::Vector3d& end : ray_ends) {
+    if (!end.allFinite()) continue;
+    const Eigen::Vector3d d = end - viewpoint;
+    const double length = d.norm();
+    if (length <= end_margin) continue;
+    const Eigen::Vector3d u = d / length;
+    // Amanatides-Woo over the model's voxels, from the scanner to end_margin before the end.
+    VoxelKey k = voxel_key(viewpoint, inverse_voxel_size_);
+    Eigen::Vector3i step;
+    Eigen::Vector3d t_max, t_delta;
+    for (int a = 0; a < 3; ++a) {
+      if (std::abs(u[a]) < 1e-12) {
+        step[a] = 0;
+        t_max[a] = t_delta[a] = std::numeric_limits<double>::infinity();
+        continue;
+      }
+      step[a] = u[a] > 0 ? 1 : -1;
+      const double boundary = (k[a] + (u[a] > 0 ? 1 : 0)) * voxel_size_;
+      t_max[a] = (boundary - viewpoint[a]) / u[a];
+      t_delta[a] = voxel_size_ / std::abs(u[a]);
+    }
+    const double stop = length - end_margin;
+    double t_exit = t_max.minCoeff();
+    for (;;) {
+      // The ray crosses voxel k over [t_enter, t_exit]; it counts when it leaves it before `stop`.
+      if (t_exit > stop) break;
+      const auto it = index_.find(k);
+      if (it != index_.end()) {
+        const uint32_t v = it->second;
+        const Eigen::Vector3d& n = normals_[v];
+        if (scans_[v] == 1 && (n.isZero() || std::abs(n.dot(u)) >= 0.3) && rays_through[v] < 65535) ++rays_through[v];
+      }
+      int a = 0;
+      if (t_max[1] < t_max[a]) a = 1;
+      if (t_max[2] < t_max[a]) a = 2;
+      k[a] += step[a];
+      t_max[a] += t_delta[a];
+      t_exit = t_max.minCoeff();
+    }
+  }
+  // Compact the voxel arrays without the carved voxels.
+  std::vector<uint32_t> new_index(points_.size(), std::numeric_limits<uint32_t>::max());
+  uint32_t kept = 0;
+  for (size_t v = 0; v < points_.size(); ++v) {
+    if (scans_[v] == 1 && rays_through[v] >= min_rays) continue;
+    new_index[v] = kept;
+    if (kept != v) {
+      sums_[kept] = sums_[v];
+      counts_[kept] = counts_[v];
+      scans_[kept] = scans_[v];
+      intensity_sums_[kept] = intensity_sums_[v];
+      intensity_count_[kept] = intensity_count_[v];
+      points_[kept] = points_[v];
+      normals_[kept] = normals_[v];
+      intensity_[kept] = intensity_[v];
+    }
+    ++kept;
+  }
+  const size_t removed = points_.size() - kept;
+  if (removed == 0) return 0;
+  for (auto* v : {&sums_, &points_, &normals_}) v->resize(kept);
+  counts_.resize(kept);
+  scans_.resize(kept);
+  intensity_sums_.resize(kept);
+  intensity_count_.resize(kept);
+  intensity_.resize(kept);
+  for (auto it = index_.begin(); it != index_.end();) {
+    if (new_index[it->second] == std::numeric_limits<uint32_t>::max()) {
+      it = index_.erase(it);
+    } else {
+      it->second = new_index[it->second];
+      ++it;
+    }
+  }
+  tree_ = points_.empty() ? nullptr : std::make_unique<KdTree>(points_);
+  return removed;
 }
 
 void VoxelMap::refresh_normals(const std::vector<uint32_t>& touched, const std::optional<Eigen::Vector3d>& viewpoint) {

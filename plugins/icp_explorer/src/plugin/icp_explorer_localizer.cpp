@@ -11,14 +11,16 @@ const Range kPositive = Range::positive();
 }  // namespace
 
 IcpExplorerConfig parse_config(const Params& p, const Limits& limits, MapOutputSettings& map_output) {
-  p.expect_only({"max_points", "scan_voxel_size", "map_voxel_size", "normal_neighbours", "icp", "rejection",
-                 "odometry_bound", "exploration", "map_output"});
+  p.expect_only({"max_points", "scan_voxel_size", "map_voxel_size", "normal_neighbours", "carve_free_space",
+                 "carve_min_rays", "icp", "rejection", "odometry_bound", "exploration", "map_output"});
   IcpExplorerConfig c;
   c.max_points = static_cast<size_t>(p.integer("max_points", static_cast<long>(std::min(c.max_points, limits.max_cloud_points)),
                                                1, static_cast<long>(limits.max_cloud_points)));
   c.scan_voxel_size = p.number("scan_voxel_size", c.scan_voxel_size, Range::closed(0.01, 5.0));
   c.map_voxel_size = p.number("map_voxel_size", c.map_voxel_size, Range::closed(0.01, 2.0));
   c.normal_neighbours = static_cast<int>(p.integer("normal_neighbours", c.normal_neighbours, 3, 64));
+  c.carve_free_space = p.flag("carve_free_space", c.carve_free_space);
+  c.carve_min_rays = static_cast<int>(p.integer("carve_min_rays", c.carve_min_rays, 1, 1000));
 
   const Params icp = p.child("icp");
   icp.expect_only({"metric", "max_iterations", "max_correspondence_distance", "kernel_scale", "initial_kernel_scale",
@@ -166,6 +168,7 @@ UpdateResult IcpExplorerLocalizer::update(const Measurement& measurement) {
   v.emplace_back("preprocess_ms", outcome.preprocess_ms);
   v.emplace_back("registration_ms", outcome.registration_ms);
   v.emplace_back("model_update_ms", outcome.model_update_ms);
+  v.emplace_back("carved_voxels", static_cast<double>(outcome.carved_voxels));
   v.emplace_back("planning_ms", outcome.planning_ms);
   v.emplace_back("model_points", static_cast<double>(explorer_->model().size()));
 

@@ -23,6 +23,8 @@ struct IcpExplorerConfig {
   double scan_voxel_size = 0.3;     // m, data points for registration
   double map_voxel_size = 0.1;      // m, the model
   int normal_neighbours = 10;
+  bool carve_free_space = true;     // drop once-seen voxels later scans see through (VoxelMap::carve)
+  int carve_min_rays = 2;
   IcpSettings icp;
   RejectionRules rejection;
   OdometryErrorBound odometry_bound;
@@ -41,6 +43,7 @@ struct ScanOutcome {
   size_t input_points = 0;
   size_t non_finite_points = 0;                 // dropped
   size_t source_points = 0;                     // after downsampling
+  size_t carved_voxels = 0;                     // model voxels this scan saw through (ghosts)
   bool intensity_missing = false;               // rule (a) was off for this scan
   double preprocess_ms = 0.0, registration_ms = 0.0, model_update_ms = 0.0, planning_ms = 0.0;
 };

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <unordered_map>
@@ -26,6 +27,15 @@ class VoxelMap {
   // (a surface faces the scanners that see it), which lets ICP skip back faces of thin walls.
   void insert(const ScanPoints& points_in_map, const std::optional<Eigen::Vector3d>& viewpoint = std::nullopt);
   void clear();
+  // Free-space carving against moving objects' ghosts: a voxel hit in a single earlier scan that
+  // at least `min_rays` rays of a new scan (from `viewpoint` to `ray_ends`, map frame) pass
+  // through, each ending more than `end_margin` beyond it and none grazing the voxel's surface
+  // (|normal . ray| >= 0.3 where it has a normal), is removed: the scanner saw through it.
+  // Call before inserting that scan. Returns the number of voxels removed.
+  size_t carve(const std::vector<Eigen::Vector3d>& ray_ends, const Eigen::Vector3d& viewpoint, int min_rays = 2,
+               double end_margin = 0.25);
+  // Scans that hit voxel i.
+  int scans_seen(size_t i) const { return scans_[i]; }
 
   bool empty() const { return points_.empty(); }
   size_t size() const { return points_.size(); }
@@ -56,6 +66,7 @@ class VoxelMap {
   std::unordered_map<VoxelKey, uint32_t, VoxelKeyHash> index_;
   std::vector<Eigen::Vector3d> sums_;
   std::vector<int> counts_;
+  std::vector<uint16_t> scans_;  // inserts that touched the voxel
   std::vector<double> intensity_sums_;
   std::vector<int> intensity_count_;
   std::vector<Eigen::Vector3d> points_;
