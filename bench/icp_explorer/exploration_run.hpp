@@ -35,15 +35,20 @@ struct ExplorationRun {
   double max_error_cm = 0.0;        // registration error, worst scan
   double max_error_deg = 0.0;
   bool done = false;                // the strategy declared the world explored
+  size_t model_voxels = 0;          // the registered model at the end
+  size_t ghost_voxels = 0;          // of them, farther than 0.15 m from every static surface
 };
 
+// carve_free_space: the model's ghost carving (VoxelMap::carve), on by default.
 inline ExplorationRun explore(Strategy strategy, uint64_t seed, int max_scans, double target_coverage,
-                              const sim::SurfaceCoverage& reference, const sim::IndoorWorld& world) {
+                              const sim::SurfaceCoverage& reference, const sim::IndoorWorld& world,
+                              bool carve_free_space = true) {
   sim::SurfaceCoverage coverage = reference;
   const sim::Scanner3D scanner{sim::Scanner3DConfig{}};
   const icp_explorer::IcpExplorerConfig config = [&] {
     auto c = four_rooms_config();
     c.exploration = strategy == Strategy::kNextBestView;
+    c.carve_free_space = carve_free_space;
     return c;
   }();
   icp_explorer::IcpExplorer explorer(config);
@@ -91,6 +96,8 @@ inline ExplorationRun explore(Strategy strategy, uint64_t seed, int max_scans, d
     run.path_length += step.norm();
     truth = Pose2(goal->x(), goal->y(), std::atan2(step.y(), step.x()));
   }
+  run.model_voxels = explorer.model().size();
+  for (const Eigen::Vector3d& p : explorer.model().points()) run.ghost_voxels += world.distance_to_static(p) > 0.15;
   return run;
 }
 

@@ -1,6 +1,7 @@
 #include "locd/sim_icp_explorer/indoor_world.hpp"
 
 #include <cmath>
+#include <algorithm>
 #include <limits>
 
 #include "locd/sdk/errors.hpp"
@@ -131,6 +132,12 @@ bool IndoorWorld::inside_static(const Eigen::Vector3d& p) const {
   for (const auto& b : boxes_)
     if (b.box.contains(p)) return true;
   return false;
+}
+
+double IndoorWorld::distance_to_static(const Eigen::Vector3d& p) const {
+  double best = std::numeric_limits<double>::infinity();
+  for (const auto& b : boxes_) best = std::min(best, b.box.exteriorDistance(p));
+  return best;
 }
 
 bool IndoorWorld::footprint_free(const Eigen::Vector2d& xy, double radius, double z_low, double z_high) const {

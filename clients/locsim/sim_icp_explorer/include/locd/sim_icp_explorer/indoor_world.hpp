@@ -60,6 +60,9 @@ class IndoorWorld {
 
   // True when p lies inside a static box (walls, furniture) or outside the bounds.
   bool inside_static(const Eigen::Vector3d& p) const;
+  // Distance from p to the nearest static box (0 inside one): how far a model point is from any
+  // real surface (a ghost of a person stands off every wall and piece of furniture).
+  double distance_to_static(const Eigen::Vector3d& p) const;
   // The free-standing clearance test used to place robots: the disc of `radius` at the robot's
   // footprint between heights [z_low, z_high] touches no static box.
   bool footprint_free(const Eigen::Vector2d& xy, double radius, double z_low, double z_high) const;
