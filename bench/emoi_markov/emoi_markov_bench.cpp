@@ -2,9 +2,12 @@
 //  - EMOI layers of a 2000 x 2000 DSM (0.1 m) at radii 5, 10, 15 m by DFT, and the direct eq. 7
 //    loop on a crop, extrapolated to the full map (counter full_map_s) for the ratio;
 //  - one Markov update on 2000 x 2000 cells: motion (shift + blur) and sensor update, for both
-//    sensor models, with the plain Gaussian blur as the baseline of the box-pass blur.
+//    sensor models, with the plain Gaussian blur as the baseline of the box-pass blur, and with the
+//    odometry-distortion hypotheses once the belief is concentrated.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <cmath>
 #include <ctime>
 
 #include <opencv2/core.hpp>
@@ -14,6 +17,7 @@
 #include "locd/emoi_markov/local_elevation_map.hpp"
 #include "locd/emoi_markov/markov_grid.hpp"
 #include "locd/emoi_markov/masked_emoi.hpp"
+#include "locd/emoi_markov/odometry_distortion.hpp"
 #include "locd/sim_emoi_markov/synthetic_dsm.hpp"
 
 namespace {
@@ -110,21 +114,6 @@ void BM_MotionBlurPlainGaussian(benchmark::State& state) {
 }
 BENCHMARK(BM_MotionBlurPlainGaussian)->Unit(benchmark::kMillisecond);
 
-void BM_SensorUpdateMasked(benchmark::State& state) {
-  const ElevationMap& dsm = world_dsm();
-  static const MaskedEmoiMatcher matcher(dsm, {5.0, 10.0, 15.0}, 0.5);
-  MarkovGrid grid(dsm.geometry, cv::Mat_<uchar>(dsm.elevation.size(), uchar(1)));
-  SensorModelConfig sensor;
-  const cv::Mat_<float> patch = robot_patch(matcher, 200, 200);
-  for (auto _ : state) {
-    const auto match = matcher.match(patch);
-    const auto likelihood = matcher.likelihood(match, sensor, dsm.geometry.height, dsm.geometry.width);
-    auto report = grid.sensor_update_likelihood(likelihood);
-    benchmark::DoNotOptimize(report);
-  }
-}
-BENCHMARK(BM_SensorUpdateMasked)->Unit(benchmark::kMillisecond);
-
 void BM_SensorUpdateFullDisk(benchmark::State& state) {
   const ElevationMap& dsm = world_dsm();
   static const EmoiLayers layers = to_layers({5.0, 10.0, 15.0}, emoi_fft(dsm, {5.0, 10.0, 15.0}));
@@ -139,23 +128,95 @@ void BM_SensorUpdateFullDisk(benchmark::State& state) {
 }
 BENCHMARK(BM_SensorUpdateFullDisk)->Unit(benchmark::kMillisecond);
 
-// One whole Markov update as the localizer runs it (motion, masked sensor update, summary).
-void BM_MarkovUpdate(benchmark::State& state) {
+// A local map as the robot has it after 15 m: the DSM around (row, col) within 25 m, seen along a
+// 15 m drive in +x (a cell's travel mark: when the robot last had it within 20 m ahead), odometry
+// recorded along the way. The DSM stands in for the laser.
+LocalElevationMap driven_local_map(const ElevationMap& dsm, int row, int col) {
+  LocalMapConfig config;
+  config.resolution = dsm.geometry.resolution;
+  config.size_m = 80.0;
+  config.memory_distance_m = 10.0;
+  LocalElevationMap map(config);
+  const Eigen::Vector2d end = dsm.geometry.center_of(row, col);
+  const double travel = 15.0;
+  map.follow(end - Eigen::Vector2d(travel, 0.0));
+  for (double t = 0.0; t <= travel + 1e-9; t += 0.05) map.record_pose(t, end - Eigen::Vector2d(travel - t, 0.0));
+  map.follow(end);
+  const int reach = static_cast<int>(25.0 / dsm.geometry.resolution);
+  for (int r = row - reach; r <= row + reach; ++r) {
+    for (int c = col - reach; c <= col + reach; ++c) {
+      const Eigen::Vector2d p = dsm.geometry.center_of(r, c);
+      if ((p - end).norm() > 25.0 || (p.x() < end.x() && p.y() > end.y())) continue;  // a quarter not seen
+      const double seen = std::clamp(travel - (end.x() - p.x()) + 2.0, travel - 9.0, travel);
+      map.insert_point({p.x(), p.y(), dsm.elevation(r, c)}, seen);
+    }
+  }
+  return map;
+}
+
+// One masked update as the localizer runs it. with_motion: the motion update (15 m, 10 %) before
+// and the belief summary after (the whole Markov update). distortion_nodes > 1: the belief starts
+// concentrated (N(truth, 1 m)) so the odometry-distortion hypotheses run on its support, each
+// rebuilding the robot's patch from the local map; otherwise the belief is uniform (global).
+void masked_update(benchmark::State& state, bool with_motion, int distortion_nodes) {
   const ElevationMap& dsm = world_dsm();
   static const MaskedEmoiMatcher matcher(dsm, {5.0, 10.0, 15.0}, 0.5);
+  const int row = 1000, col = 1000;
+  static const LocalElevationMap local_map = driven_local_map(dsm, row, col);
   MarkovGrid grid(dsm.geometry, cv::Mat_<uchar>(dsm.elevation.size(), uchar(1)));
   SensorModelConfig sensor;
-  const cv::Mat_<float> patch = robot_patch(matcher, 200, 200);
+  DistortionConfig distortion;
+  distortion.nodes = distortion_nodes;
+  const auto hypotheses = distortion_hypotheses(distortion.scale_stddev, distortion.direction_stddev_rad, distortion.nodes);
+  const Eigen::Vector2d position = dsm.geometry.center_of(row, col), shift(15.0, 0.0);
+  const double ground = dsm.elevation(row, col);
+  double max_correction = 0.0;
+  for (const auto& h : hypotheses) max_correction = std::max(max_correction, (h.transform - Eigen::Matrix2d::Identity()).norm());
+  const double reach = local_map.patch_reach_m(position, matcher.cell_m(), matcher.patch_radius(), max_correction);
+  LocalElevationMap::PatchCells cells_seen;
+  auto patch_under = [&](const Eigen::Matrix2d& b) {
+    return LocalElevationMap::bin_patch(cells_seen, 0.0, matcher.cell_m(), matcher.patch_radius(), ground, b);
+  };
+  const cv::Mat_<float> patch = robot_patch(matcher, row / matcher.factor(), col / matcher.factor());
+  size_t cells = 0;
   for (auto _ : state) {
-    grid.motion_update({15.0, 3.3}, 1.5);
-    const auto match = matcher.match(patch);
-    grid.sensor_update_likelihood(matcher.likelihood(match, sensor, dsm.geometry.height, dsm.geometry.width));
-    auto summary = grid.summary();
-    benchmark::DoNotOptimize(summary);
+    state.PauseTiming();
+    if (distortion_nodes > 1) grid.set_gaussian(position - shift, 1.0);
+    state.ResumeTiming();
+    const cv::Mat_<float> previous = distortion_nodes > 1 ? matcher.pool(grid.belief()) : cv::Mat_<float>();
+    const double blur = std::hypot(0.1 * shift.norm(), 0.2);
+    if (with_motion) grid.motion_update(shift, blur);
+    if (distortion_nodes > 1) cells_seen = local_map.patch_cells(position, reach, 15.0);  // as the localizer
+    const auto match = matcher.match(distortion_nodes > 1 ? patch_under(Eigen::Matrix2d::Identity()) : patch);
+    cv::Mat_<float> coarse = matcher.coarse_log_likelihood(match, sensor);
+    cv::exp(coarse, coarse);
+    if (distortion_nodes > 1) {
+      cells = apply_distortion_hypotheses(matcher, patch_under, hypotheses, distortion, sensor, previous,
+                                          matcher.pool(grid.belief()), shift,
+                                          residual_blur_m(distortion, blur, shift.norm(), 0.2), coarse)
+                  .cells;
+    }
+    grid.sensor_update_likelihood(matcher.to_fine(coarse, dsm.geometry.height, dsm.geometry.width));
+    if (with_motion) {
+      auto summary = grid.summary();
+      benchmark::DoNotOptimize(summary);
+    }
   }
   state.counters["cells"] = static_cast<double>(dsm.geometry.size());
+  if (distortion_nodes > 1) state.counters["hypothesis_cells"] = static_cast<double>(cells);
 }
+
+void BM_SensorUpdateMasked(benchmark::State& state) { masked_update(state, false, 1); }
+BENCHMARK(BM_SensorUpdateMasked)->Unit(benchmark::kMillisecond);
+
+// One whole Markov update as the localizer runs it from a uniform belief (motion, masked sensor
+// update, summary): the global case, where the distortion hypotheses do not run.
+void BM_MarkovUpdate(benchmark::State& state) { masked_update(state, true, 1); }
 BENCHMARK(BM_MarkovUpdate)->Unit(benchmark::kMillisecond);
+
+// The same once the belief is concentrated, with the 5 x 5 distortion hypotheses (the default).
+void BM_MarkovUpdateWithDistortion(benchmark::State& state) { masked_update(state, true, 5); }
+BENCHMARK(BM_MarkovUpdateWithDistortion)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

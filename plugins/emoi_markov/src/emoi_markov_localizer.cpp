@@ -356,9 +356,19 @@ cv::Mat_<float> EmoiMarkovLocalizer::masked_likelihood(const cv::Mat_<float>& pr
   const Eigen::Vector3d position = last_odometry_->pose.translation();
   const double ground = position.z() - config_.base_height_m;
   const double heading_offset = normalize_angle(map_heading() - yaw_of(last_odometry_->pose.linear()));
+  // The remembered cells once, far enough for the largest hypothesis; binned per hypothesis.
+  double max_correction = 0.0;
+  for (const DistortionHypothesis& h : hypotheses_) {
+    max_correction = std::max(max_correction, (h.transform - Eigen::Matrix2d::Identity()).norm());
+  }
+  const LocalElevationMap::PatchCells cells = local_map_->patch_cells(
+      position.head<2>(),
+      local_map_->patch_reach_m(position.head<2>(), matcher_->cell_m(), matcher_->patch_radius(),
+                                previous_coarse.empty() ? 0.0 : max_correction),
+      travelled_m_);
   auto patch_under = [&](const Eigen::Matrix2d& distortion) {
-    return local_map_->robot_patch(position.head<2>(), heading_offset, matcher_->cell_m(), matcher_->patch_radius(),
-                                   ground, travelled_m_, distortion);
+    return LocalElevationMap::bin_patch(cells, heading_offset, matcher_->cell_m(), matcher_->patch_radius(), ground,
+                                        distortion);
   };
   last_match_ = matcher_->match(patch_under(Eigen::Matrix2d::Identity()));
   const MaskedEmoiMatcher::Match& match = *last_match_;

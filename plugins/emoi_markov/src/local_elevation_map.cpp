@@ -179,48 +179,61 @@ Eigen::Vector2d LocalElevationMap::recorded_position(double travelled_m) const {
   return before->second + f * (after->second - before->second);
 }
 
-cv::Mat_<float> LocalElevationMap::robot_patch(const Eigen::Vector2d& position, double heading_offset, double cell_m,
-                                               int radius_cells, double centre_elevation, double travelled_m,
-                                               const Eigen::Matrix2d& distortion) const {
-  const int side = 2 * radius_cells + 1;
-  cv::Mat_<double> sum(side, side, 0.0);
-  cv::Mat_<int> count(side, side, 0);
-  const double res = config_.resolution;
-  const Eigen::Rotation2Dd odom_to_map(heading_offset);
-  const Eigen::Matrix2d correction = distortion - Eigen::Matrix2d::Identity();
-  const bool distorted = correction.norm() > 0.0 && !trajectory_.empty();
-  // Local-map cells that can land in the patch: its circumscribed square plus the largest move.
-  double reach = 0.0;
-  if (distorted) {
+double LocalElevationMap::patch_reach_m(const Eigen::Vector2d& position, double cell_m, int radius_cells,
+                                        double max_correction) const {
+  double reach = 0.0;  // how far back the remembered cells were written from
+  if (max_correction > 0.0) {
     for (const auto& record : trajectory_) reach = std::max(reach, (record.second - position).norm());
   }
-  const double half = (radius_cells + 1) * cell_m * std::sqrt(2.0) + correction.norm() * reach + res;
-  const Eigen::Vector2i low = cell_of(position - Eigen::Vector2d::Constant(half), res) - origin_cell_;
-  const Eigen::Vector2i high = cell_of(position + Eigen::Vector2d::Constant(half), res) - origin_cell_;
-  // Cells written at the same travel share their correction: cache it per distinct mark.
+  return (radius_cells + 1) * cell_m * std::sqrt(2.0) + max_correction * reach + config_.resolution;  // the patch's corners
+}
+
+LocalElevationMap::PatchCells LocalElevationMap::patch_cells(const Eigen::Vector2d& position, double reach_m,
+                                                             double travelled_m) const {
+  PatchCells out;
+  const double res = config_.resolution;
+  const Eigen::Vector2i low = cell_of(position - Eigen::Vector2d::Constant(reach_m), res) - origin_cell_;
+  const Eigen::Vector2i high = cell_of(position + Eigen::Vector2d::Constant(reach_m), res) - origin_cell_;
+  // Cells written at the same travel share their displacement: looked up once per distinct mark.
   float cached_seen = std::numeric_limits<float>::quiet_NaN();
-  Eigen::Vector2d cached_move = Eigen::Vector2d::Zero();
+  Eigen::Vector2f cached = Eigen::Vector2f::Zero();
   for (int r = std::max(0, low.y()); r <= std::min(cells_ - 1, high.y()); ++r) {
     const float* e = elevation_.ptr<float>(r);
     const float* s = seen_at_.ptr<float>(r);
     for (int c = std::max(0, low.x()); c <= std::min(cells_ - 1, high.x()); ++c) {
       if (!std::isfinite(e[c]) || travelled_m - s[c] > config_.memory_distance_m) continue;
-      Eigen::Vector2d relative = (origin_cell_ + Eigen::Vector2i(c, r)).cast<double>() * res +
-                                 Eigen::Vector2d::Constant(res / 2) - position;
-      if (distorted) {
-        if (!(s[c] == cached_seen)) {
-          cached_seen = s[c];
-          cached_move = correction * (recorded_position(s[c]) - position);
-        }
-        relative += cached_move;
+      const Eigen::Vector2d relative = (origin_cell_ + Eigen::Vector2i(c, r)).cast<double>() * res +
+                                       Eigen::Vector2d::Constant(res / 2) - position;
+      if (relative.squaredNorm() > reach_m * reach_m) continue;
+      if (!(s[c] == cached_seen)) {
+        cached_seen = s[c];
+        cached = trajectory_.empty() ? Eigen::Vector2f::Zero()
+                                     : Eigen::Vector2f((recorded_position(s[c]) - position).cast<float>());
       }
-      const Eigen::Vector2d in_map = odom_to_map * relative;
-      const int j = static_cast<int>(std::lround(in_map.x() / cell_m)) + radius_cells;
-      const int i = static_cast<int>(std::lround(in_map.y() / cell_m)) + radius_cells;
-      if (i < 0 || j < 0 || i >= side || j >= side) continue;
-      sum(i, j) += e[c];
-      count(i, j) += 1;
+      out.relative.push_back(relative.cast<float>());
+      out.since_written.push_back(cached);
+      out.elevation.push_back(e[c]);
     }
+  }
+  return out;
+}
+
+cv::Mat_<float> LocalElevationMap::bin_patch(const PatchCells& cells, double heading_offset, double cell_m,
+                                             int radius_cells, double centre_elevation,
+                                             const Eigen::Matrix2d& distortion) {
+  const int side = 2 * radius_cells + 1;
+  cv::Mat_<double> sum(side, side, 0.0);
+  cv::Mat_<int> count(side, side, 0);
+  const Eigen::Matrix2d rotation = Eigen::Rotation2Dd(heading_offset).toRotationMatrix();
+  const Eigen::Matrix2f to_map = (rotation / cell_m).cast<float>();
+  const Eigen::Matrix2f moved = (rotation * (distortion - Eigen::Matrix2d::Identity()) / cell_m).cast<float>();
+  for (size_t k = 0; k < cells.elevation.size(); ++k) {
+    const Eigen::Vector2f in_cells = to_map * cells.relative[k] + moved * cells.since_written[k];
+    const int j = cvRound(in_cells.x()) + radius_cells;
+    const int i = cvRound(in_cells.y()) + radius_cells;
+    if (i < 0 || j < 0 || i >= side || j >= side) continue;
+    sum(i, j) += cells.elevation[k];
+    count(i, j) += 1;
   }
   cv::Mat_<float> patch(side, side, kUnknown);
   for (int i = 0; i < side; ++i) {
@@ -229,6 +242,15 @@ cv::Mat_<float> LocalElevationMap::robot_patch(const Eigen::Vector2d& position, 
     }
   }
   return patch;
+}
+
+cv::Mat_<float> LocalElevationMap::robot_patch(const Eigen::Vector2d& position, double heading_offset, double cell_m,
+                                               int radius_cells, double centre_elevation, double travelled_m,
+                                               const Eigen::Matrix2d& distortion) const {
+  const double correction = (distortion - Eigen::Matrix2d::Identity()).norm();
+  const PatchCells cells =
+      patch_cells(position, patch_reach_m(position, cell_m, radius_cells, correction), travelled_m);
+  return bin_patch(cells, heading_offset, cell_m, radius_cells, centre_elevation, distortion);
 }
 
 GridGeometry LocalElevationMap::geometry() const {

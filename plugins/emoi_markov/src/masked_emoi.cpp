@@ -44,15 +44,6 @@ MaskedEmoiMatcher::MaskedEmoiMatcher(const ElevationMap& dsm, std::vector<double
     }
   }
   ground_ = coarse_.elevation;
-  filled_ = cv::Mat_<float>(rows, cols, 0.0f);
-  valid_ = cv::Mat_<float>(rows, cols, 0.0f);
-  for (int r = 0; r < rows; ++r) {
-    for (int c = 0; c < cols; ++c) {
-      if (!std::isfinite(coarse_.elevation(r, c))) continue;
-      filled_(r, c) = coarse_.elevation(r, c);
-      valid_(r, c) = 1.0f;
-    }
-  }
   double max_radius = 0.0;
   for (double radius : radii_m_) max_radius = std::max(max_radius, radius);
   patch_radius_ = radius_in_cells(max_radius, coarse_.geometry.resolution);
@@ -70,6 +61,16 @@ MaskedEmoiMatcher::MaskedEmoiMatcher(const ElevationMap& dsm, std::vector<double
     }
   }
   reference_ = n ? total / static_cast<double>(n) : 0.0;
+  // Direct sums (match_at) in float: elevations relative to the reference, 0 where no data.
+  filled_ = cv::Mat_<float>(rows, cols, 0.0f);
+  valid_ = cv::Mat_<float>(rows, cols, 0.0f);
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      if (!std::isfinite(coarse_.elevation(r, c))) continue;
+      filled_(r, c) = static_cast<float>(coarse_.elevation(r, c) - reference_);
+      valid_(r, c) = 1.0f;
+    }
+  }
   padded_rows_ = cv::getOptimalDFTSize(rows + patch_radius_);
   padded_cols_ = cv::getOptimalDFTSize(cols + patch_radius_);
   cv::Mat elevation = cv::Mat::zeros(padded_rows_, padded_cols_, CV_64F);
@@ -205,37 +206,44 @@ MaskedEmoiMatcher::Match MaskedEmoiMatcher::match_at(const cv::Mat_<float>& patc
     }
     terms.push_back({o.dr, o.dc, static_cast<long>(o.dr) * cols + o.dc, o.r2_m, bucket});
   }
+  std::stable_sort(terms.begin(), terms.end(), [](const Term& a, const Term& b) { return a.bucket < b.bucket; });
+  std::vector<size_t> bucket_end(radii, 0);
+  for (size_t t = 0, b = 0; b < radii; ++b) {
+    while (t < terms.size() && terms[t].bucket == b) ++t;
+    bucket_end[b] = t;
+  }
   const int n_cells = static_cast<int>(cells.size());
   for (size_t k = 0; k < radii; ++k) out.dsm_emoi.push_back(cv::Mat_<float>(1, n_cells, kNaN));
   const float* elevation = filled_.ptr<float>(0);
   const float* valid = valid_.ptr<float>(0);
   const int reach = patch_radius_;
-  std::vector<double> moment(radii), weight(radii), count(radii);
   for (int i = 0; i < n_cells; ++i) {
     const cv::Point& x = cells[i];
     if (x.x < 0 || x.y < 0 || x.x >= cols || x.y >= rows) continue;
-    const double ground = ground_(x.y, x.x);
-    if (!std::isfinite(ground)) continue;
-    std::fill(moment.begin(), moment.end(), 0.0);
-    std::fill(weight.begin(), weight.end(), 0.0);
-    std::fill(count.begin(), count.end(), 0.0);
+    if (!std::isfinite(ground_(x.y, x.x))) continue;
+    const double ground = ground_(x.y, x.x) - reference_;
     const long centre = static_cast<long>(x.y) * cols + x.x;
     const bool inside = x.x >= reach && x.y >= reach && x.x + reach < cols && x.y + reach < rows;
-    for (const Term& t : terms) {
-      long index = centre + t.linear;
-      if (!inside) {
-        const int r = x.y + t.dr, c = x.x + t.dc;
-        if (r < 0 || c < 0 || r >= rows || c >= cols) continue;
-      }
-      moment[t.bucket] += t.r2_m * elevation[index];  // sum r^2 e over cells with data (e = 0 without)
-      weight[t.bucket] += t.r2_m * valid[index];      // sum r^2 over cells with data
-      count[t.bucket] += valid[index];
-    }
+    // Running sums over the buckets: sum r^2 e and sum r^2 over cells with data (e = 0 without), n.
     double m = 0.0, w = 0.0, n = 0.0;
+    size_t t = 0;
     for (size_t b = 0; b < radii; ++b) {
-      m += moment[b];
-      w += weight[b];
-      n += count[b];
+      float bm = 0.0f, bw = 0.0f, bn = 0.0f;
+      for (; t < bucket_end[b]; ++t) {
+        const Term& term = terms[t];
+        if (!inside) {
+          const int r = x.y + term.dr, c = x.x + term.dc;
+          if (r < 0 || c < 0 || r >= rows || c >= cols) continue;
+        }
+        const long index = centre + term.linear;
+        const float r2 = static_cast<float>(term.r2_m);
+        bm += r2 * elevation[index];
+        bw += r2 * valid[index];
+        bn += valid[index];
+      }
+      m += bm;
+      w += bw;
+      n += bn;
       const size_t k = order[b];
       // eq. 7 on M: sum r^2 (e(x + k) - e(x)) / n / R^2
       if (n > 0.5 && !disks[k].empty()) {

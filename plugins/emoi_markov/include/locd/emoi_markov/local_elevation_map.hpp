@@ -70,6 +70,16 @@ class LocalElevationMap {
   // The recorded position at a travel mark (linear between records, clamped at the ends).
   Eigen::Vector2d recorded_position(double travelled_m) const;
 
+  // The remembered cells around the robot, once for every hypothesis of the odometry's
+  // distortion: position relative to the robot (odom frame) as odometry placed it, the odometry's
+  // displacement from where the cell was written to the robot, P_odom(t) - position, and the
+  // elevation. reach_m bounds the relative position.
+  struct PatchCells {
+    std::vector<Eigen::Vector2f> relative, since_written;
+    std::vector<float> elevation;
+  };
+  PatchCells patch_cells(const Eigen::Vector2d& position, double reach_m, double travelled_m) const;
+
   // The robot-centred patch the masked match reads: (2 radius_cells + 1)^2 cells of cell_m,
   // aligned with the map frame (odom rotated by heading_offset = map yaw - odom yaw), each the
   // mean observed elevation of the local-map cells falling into it, minus centre_elevation; NaN
@@ -78,9 +88,15 @@ class LocalElevationMap {
   // the heading rotation): a cell written at travel t moves from p - position to
   //   (p - position) + (distortion - I) (P_odom(t) - position).
   // With the identity it is the local map as odometry placed it.
+  static cv::Mat_<float> bin_patch(const PatchCells& cells, double heading_offset, double cell_m, int radius_cells,
+                                   double centre_elevation,
+                                   const Eigen::Matrix2d& distortion = Eigen::Matrix2d::Identity());
+  // patch_cells + bin_patch, reaching far enough for this distortion.
   cv::Mat_<float> robot_patch(const Eigen::Vector2d& position, double heading_offset, double cell_m,
                               int radius_cells, double centre_elevation, double travelled_m,
                               const Eigen::Matrix2d& distortion = Eigen::Matrix2d::Identity()) const;
+  // The reach patch_cells needs for a patch and distortions up to |B - I| = max_correction.
+  double patch_reach_m(const Eigen::Vector2d& position, double cell_m, int radius_cells, double max_correction) const;
 
   // Observed elevations (NaN where unknown or forgotten) and the grid geometry (odom frame).
   cv::Mat_<float> observed(double travelled_m) const;

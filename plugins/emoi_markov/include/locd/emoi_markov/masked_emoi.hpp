@@ -74,7 +74,7 @@ class MaskedEmoiMatcher {
   int patch_radius_ = 1;
   ElevationMap coarse_;            // max-pooled
   cv::Mat_<float> ground_;         // centre elevations (the pooled DSM)
-  cv::Mat_<float> filled_, valid_; // pooled DSM with 0 where no data, and 1 where data (direct sums)
+  cv::Mat_<float> filled_, valid_; // pooled DSM minus reference_ (0 where no data), 1 where data
   double reference_ = 0.0;
   int padded_rows_ = 0, padded_cols_ = 0;
   cv::Mat elevation_spectrum_, valid_spectrum_;
