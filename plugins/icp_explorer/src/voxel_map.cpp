@@ -102,6 +102,7 @@ size_t VoxelMap::carve(const std::vector<Eigen::Vector3d>& ray_ends, const Eigen
                        double end_margin) {
   if (points_.empty() || !viewpoint.allFinite()) return 0;
   std::vector<uint16_t> rays_through(points_.size(), 0);
+  const double plane_crossing_radius = 0.3 * voxel_size_;
   for (const Eigen::Vector3d& end : ray_ends) {
     if (!end.allFinite()) continue;
     const Eigen::Vector3d d = end - viewpoint;
@@ -132,7 +133,16 @@ size_t VoxelMap::carve(const std::vector<Eigen::Vector3d>& ray_ends, const Eigen
       if (it != index_.end()) {
         const uint32_t v = it->second;
         const Eigen::Vector3d& n = normals_[v];
-        if (scans_[v] == 1 && (n.isZero() || std::abs(n.dot(u)) >= 0.3) && rays_through[v] < 65535) ++rays_through[v];
+        // Not through a surface the ray grazes, nor one it ends on (its end on the voxel's plane:
+        // a ray reaching a floor or wall at a shallow angle crosses that surface's own voxels).
+        const double facing = n.dot(u);
+        if (scans_[v] == 1 && !n.isZero() && std::abs(facing) >= 0.3 &&
+            std::abs(n.dot(end - points_[v])) >= voxel_size_ && rays_through[v] < 65535) {
+          // Where the ray crosses the voxel's surface plane: near the centroid, a surface there
+          // would have been hit (beside an object's edge the crossing falls off the surface).
+          const double t = n.dot(points_[v] - viewpoint) / facing;
+          if ((viewpoint + t * u - points_[v]).norm() <= plane_crossing_radius) ++rays_through[v];
+        }
       }
       int a = 0;
       if (t_max[1] < t_max[a]) a = 1;

@@ -118,6 +118,27 @@ TEST(VoxelMapCarving, SurfacesSeenTwiceOrOnlyGrazedOrAtTheRayEndStay) {
   std::vector<Eigen::Vector3d> along;
   for (double z = 0.0; z <= 2.0; z += 0.05) along.emplace_back(6.0, 1.03, z);
   EXPECT_EQ(grazed.carve(along, Eigen::Vector3d(-1.0, 1.03, 1.0)), 0u);
+  // A floor seen once; the next scan's rays reach the floor farther on at 18 degrees: they
+  // cross the floor's own voxels (0.32 m of ray in the 0.1 m slab, more than end_margin) just
+  // before their ends, which is not seeing through them.
+  ie::VoxelMap floor(0.1);
+  ie::ScanPoints floor_points;
+  for (double x = 0.0; x <= 6.0; x += 0.05)
+    for (double y = -1.0; y <= 1.0; y += 0.05) floor_points.points.emplace_back(x, y, 0.0);
+  floor.insert(floor_points, Eigen::Vector3d(3.0, 0.0, 0.8));
+  std::vector<Eigen::Vector3d> shallow;
+  const double run = 0.8 / std::tan(18.0 * M_PI / 180.0);  // 2.46 m
+  for (double y = -0.9; y <= 0.9; y += 0.05)
+    for (double x : {0.0, 0.02, 0.04, 0.06, 0.08}) shallow.emplace_back(run + 0.5 + x, y, 0.0);
+  EXPECT_EQ(floor.carve(shallow, Eigen::Vector3d(0.5, 0.0, 0.8)), 0u);
+  // An object's edge in the middle of a voxel (a panel x = 2.5, y up to 0.22, seen once): rays
+  // passing just beside the edge cross that voxel, but cross the panel's plane off the panel.
+  ie::VoxelMap edge(0.1);
+  edge.insert(join(wall_x(2.5, -0.5, 0.22, 0.02), wall_x(5.0, -2.0, 2.0)), scanner);
+  std::vector<Eigen::Vector3d> beside;
+  for (double y = 0.25; y <= 0.29; y += 0.01)
+    for (double z = 0.8; z <= 1.2; z += 0.02) beside.emplace_back(5.0, y, z);
+  EXPECT_EQ(edge.carve(beside, Eigen::Vector3d(0.0, 0.27, 1.0)), 0u);
   // Rays that end on a once-seen surface do not carve it (end_margin).
   ie::VoxelMap ends(0.1);
   ends.insert(wall_x(5.0, -2.0, 2.0), scanner);

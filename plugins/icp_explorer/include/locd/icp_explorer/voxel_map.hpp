@@ -27,11 +27,13 @@ class VoxelMap {
   // (a surface faces the scanners that see it), which lets ICP skip back faces of thin walls.
   void insert(const ScanPoints& points_in_map, const std::optional<Eigen::Vector3d>& viewpoint = std::nullopt);
   void clear();
-  // Free-space carving against moving objects' ghosts: a voxel hit in a single earlier scan that
-  // at least `min_rays` rays of a new scan (from `viewpoint` to `ray_ends`, map frame) pass
-  // through, each ending more than `end_margin` beyond it and none grazing the voxel's surface
-  // (|normal . ray| >= 0.3 where it has a normal), is removed: the scanner saw through it.
-  // Call before inserting that scan. Returns the number of voxels removed.
+  // Free-space carving against moving objects' ghosts: a voxel hit in a single earlier scan is
+  // removed when at least `min_rays` rays of a new scan (from `viewpoint` to `ray_ends`, map
+  // frame) see through it: each crosses the voxel, ends more than `end_margin` beyond it, does
+  // not graze the voxel's surface (|normal . ray| >= 0.3), does not end on that surface's plane,
+  // and crosses the plane within 0.3 voxel of the centroid (a ray passing beside an object's
+  // edge crosses the edge voxel but not the surface). Only voxels with a normal are carved (the
+  // floor's sparse far rings have none). Call before inserting that scan. Returns how many.
   size_t carve(const std::vector<Eigen::Vector3d>& ray_ends, const Eigen::Vector3d& viewpoint, int min_rays = 2,
                double end_margin = 0.25);
   // Scans that hit voxel i.
