@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "four_rooms_pair.hpp"
-#include "nearest_frontier.hpp"
+#include "locd/icp_explorer/nearest_frontier.hpp"
 #include "locd/icp_explorer/icp_explorer.hpp"
 #include "locd/sim_icp_explorer/stop_and_scan_odometry.hpp"
 #include "locd/sim_icp_explorer/surface_coverage.hpp"
@@ -84,7 +84,7 @@ inline ExplorationRun explore(Strategy strategy, uint64_t seed, int max_scans, d
           scan.cloud.points, {}, 0.5 * config.layered_map.cell_size, outcome.T_map_base * scan.cloud.sensor_pose);
       frontier_map.integrate(rays.points, (outcome.T_map_base * scan.cloud.sensor_pose).translation());
       stops.push_back(here);
-      goal = nearest_frontier(frontier_map, planner, here, stops, 1.0);
+      goal = icp_explorer::nearest_frontier(frontier_map, planner, here, stops, 1.0);
     }
     if (!goal) {
       run.done = true;

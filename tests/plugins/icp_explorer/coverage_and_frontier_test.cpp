@@ -8,7 +8,7 @@
 #include "locd/icp_explorer/next_best_view.hpp"
 #include "locd/sdk/geometry.hpp"
 #include "locd/sim_icp_explorer/surface_coverage.hpp"
-#include "nearest_frontier.hpp"
+#include "locd/icp_explorer/nearest_frontier.hpp"
 #include "toy_world.hpp"
 
 namespace ie = locd::icp_explorer;
@@ -172,7 +172,7 @@ TEST(NearestFrontier, GoesToTheNearestUnresolvedFrontierAndStopsWhenNoneIsLeft) 
   const ie::NextBestViewPlanner planner(settings);
   std::vector<Eigen::Vector2d> stops = {{3.0, 1.2}};
   scan_into(map, world, scanner, Pose2(3.0, 1.2, 0.0), 5);
-  const auto goal = locd::bench::nearest_frontier(map, planner, stops.back(), stops, 1.0);
+  const auto goal = locd::icp_explorer::nearest_frontier(map, planner, stops.back(), stops, 1.0);
   ASSERT_TRUE(goal.has_value());
   // A reachable, known-empty scan position at least 1 m from the robot, next to a frontier
   // (an empty column with an unknown neighbour).
@@ -199,7 +199,7 @@ TEST(NearestFrontier, GoesToTheNearestUnresolvedFrontierAndStopsWhenNoneIsLeft) 
     stops.push_back(*next);
     scan_into(map, world, scanner, Pose2(next->x(), next->y(), 0.0), 10 + scans);
     ++scans;
-    next = locd::bench::nearest_frontier(map, planner, stops.back(), stops, 1.0);
+    next = locd::icp_explorer::nearest_frontier(map, planner, stops.back(), stops, 1.0);
   }
   EXPECT_FALSE(next.has_value()) << "no frontier left after " << scans << " scans";
   bool visited_room_b = false;

@@ -1,4 +1,4 @@
-// The nearest-frontier baseline of the exploration benchmark (and its test): Yamauchi's
+// The nearest-frontier baseline the exploration benchmark compares next best view with: Yamauchi's
 // frontier exploration on icp_explorer's layered map collapsed to 2D, with the planner's own
 // traversability, so that both strategies move by the same rules.
 #pragma once
@@ -12,7 +12,7 @@
 #include "locd/icp_explorer/layered_hexahedral_map.hpp"
 #include "locd/icp_explorer/next_best_view.hpp"
 
-namespace locd::bench {
+namespace locd::icp_explorer {
 
 // Nearest-frontier exploration (Yamauchi 1997) on the same map collapsed to 2D (a column is
 // occupied / empty / unknown below the robot's height): a frontier is an empty column next to an
@@ -20,12 +20,12 @@ namespace locd::bench {
 // footprint known empty) with a frontier within its footprint plus one cell, at least
 // min_distance away and at least min_distance from every earlier scan stop (a frontier that one
 // scan did not resolve is not tried again); done when there is none.
-inline std::optional<Eigen::Vector2d> nearest_frontier(const icp_explorer::LayeredHexahedralMap& map,
-                                                       const icp_explorer::NextBestViewPlanner& planner,
+inline std::optional<Eigen::Vector2d> nearest_frontier(const LayeredHexahedralMap& map,
+                                                       const NextBestViewPlanner& planner,
                                                        const Eigen::Vector2d& robot,
                                                        const std::vector<Eigen::Vector2d>& scan_stops,
                                                        double min_distance) {
-  using icp_explorer::CellState;
+  
   std::vector<float> length;
   const std::vector<float> m = planner.movable(map, robot, &length);
   const double height = planner.settings().robot_height;
@@ -68,4 +68,4 @@ inline std::optional<Eigen::Vector2d> nearest_frontier(const icp_explorer::Layer
   return best;
 }
 
-}  // namespace locd::bench
+}  // namespace locd::icp_explorer
