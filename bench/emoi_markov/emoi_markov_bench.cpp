@@ -157,7 +157,8 @@ LocalElevationMap driven_local_map(const ElevationMap& dsm, int row, int col) {
 // One masked update as the localizer runs it. with_motion: the motion update (15 m, 10 %) before
 // and the belief summary after (the whole Markov update). distortion_nodes > 1: the belief starts
 // concentrated (N(truth, 1 m)) so the odometry-distortion hypotheses run on its support, each
-// rebuilding the robot's patch from the local map; otherwise the belief is uniform (global).
+// rebuilding the robot's patch from the local map, and the sparse sensor model is used (no
+// whole-map DFT match); otherwise the belief is uniform (global) and the DFT match runs.
 void masked_update(benchmark::State& state, bool with_motion, int distortion_nodes) {
   const ElevationMap& dsm = world_dsm();
   static const MaskedEmoiMatcher matcher(dsm, {5.0, 10.0, 15.0}, 0.5);
@@ -173,30 +174,40 @@ void masked_update(benchmark::State& state, bool with_motion, int distortion_nod
   double max_correction = 0.0;
   for (const auto& h : hypotheses) max_correction = std::max(max_correction, (h.transform - Eigen::Matrix2d::Identity()).norm());
   const double reach = local_map.patch_reach_m(position, matcher.cell_m(), matcher.patch_radius(), max_correction);
-  LocalElevationMap::PatchCells cells_seen;
-  auto patch_under = [&](const Eigen::Matrix2d& b) {
-    return LocalElevationMap::bin_patch(cells_seen, 0.0, matcher.cell_m(), matcher.patch_radius(), ground, b);
-  };
   const cv::Mat_<float> patch = robot_patch(matcher, row / matcher.factor(), col / matcher.factor());
   size_t cells = 0;
   for (auto _ : state) {
     state.PauseTiming();
     if (distortion_nodes > 1) grid.set_gaussian(position - shift, 1.0);
     state.ResumeTiming();
-    const cv::Mat_<float> previous = distortion_nodes > 1 ? matcher.pool(grid.belief()) : cv::Mat_<float>();
+    const cv::Mat_<float> previous = distortion_nodes > 1 ? matcher.pool(grid.belief(), grid.occupied()) : cv::Mat_<float>();
     const double blur = std::hypot(0.1 * shift.norm(), 0.2);
     if (with_motion) grid.motion_update(shift, blur);
-    if (distortion_nodes > 1) cells_seen = local_map.patch_cells(position, reach, 15.0);  // as the localizer
-    const auto match = matcher.match(distortion_nodes > 1 ? patch_under(Eigen::Matrix2d::Identity()) : patch);
-    cv::Mat_<float> coarse = matcher.coarse_log_likelihood(match, sensor);
-    cv::exp(coarse, coarse);
+    bool sparse_done = false;
     if (distortion_nodes > 1) {
-      cells = apply_distortion_hypotheses(matcher, patch_under, hypotheses, distortion, sensor, previous,
-                                          matcher.pool(grid.belief()), shift,
-                                          residual_blur_m(distortion, blur, shift.norm(), 0.2), coarse)
-                  .cells;
+      // As the localizer: the remembered cells once, binned per hypothesis; the sparse model on
+      // the prior's support.
+      const PatchBinner binner(local_map.patch_cells(position, reach, 15.0), 0.0, matcher.cell_m(),
+                               matcher.patch_radius(), ground);
+      const SupportLikelihood sparse = support_likelihood(
+          matcher, [&](const Eigen::Matrix2d& b) { return binner.patch(b); }, hypotheses, distortion, sensor,
+          previous, matcher.pool(grid.belief(), grid.occupied()), shift,
+          residual_blur_m(distortion, blur, shift.norm(), 0.2));
+      cells = sparse.cells.size();
+      if (!sparse.cells.empty()) {
+        cv::Rect window;
+        const cv::Mat_<float> values =
+            support_likelihood_on_grid(matcher, sparse, dsm.geometry.height, dsm.geometry.width, window);
+        grid.sensor_update_likelihood(values, window, sparse.outside);
+        sparse_done = true;
+      }
     }
-    grid.sensor_update_likelihood(matcher.to_fine(coarse, dsm.geometry.height, dsm.geometry.width));
+    if (!sparse_done) {
+      const auto match = matcher.match(patch);
+      cv::Mat_<float> coarse = matcher.coarse_log_likelihood(match, sensor);
+      cv::exp(coarse, coarse);
+      grid.sensor_update_likelihood(matcher.to_fine(coarse, dsm.geometry.height, dsm.geometry.width));
+    }
     if (with_motion) {
       auto summary = grid.summary();
       benchmark::DoNotOptimize(summary);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include <opencv2/imgproc.hpp>
@@ -292,7 +293,8 @@ UpdateResult EmoiMarkovLocalizer::after_insert(int64_t stamp_ns) {
   if (pending_travel_m_ < config_.update_distance_m) return result;
   // Table 1, action: shift by the odometry, blur by its error.
   const bool hypotheses = matcher_ && hypotheses_.size() > 1;  // odometry_distortion.hpp
-  const cv::Mat_<float> previous_coarse = hypotheses ? matcher_->pool(grid_->belief()) : cv::Mat_<float>();
+  const cv::Mat_<float> previous_coarse =
+      hypotheses ? matcher_->pool(grid_->belief(), grid_->occupied()) : cv::Mat_<float>();
   const Eigen::Vector2d shift = pending_shift_;
   const double travel = pending_travel_m_;
   const double blur = std::hypot(config_.odometry_error * pending_travel_m_, config_.min_blur_m);
@@ -306,7 +308,8 @@ UpdateResult EmoiMarkovLocalizer::after_insert(int64_t stamp_ns) {
   const double ground = position.z() - config_.base_height_m;
   std::vector<double> weights;
   last_robot_emoi_.clear();
-  cv::Mat_<float> log_likelihood, likelihood;
+  cv::Mat_<float> log_likelihood;
+  WindowLikelihood likelihood;
   if (matcher_) {
     likelihood = masked_likelihood(previous_coarse, shift, travel, blur, weights);
   } else {
@@ -321,7 +324,7 @@ UpdateResult EmoiMarkovLocalizer::after_insert(int64_t stamp_ns) {
   SensorUpdateReport sensor;
   sensor.evidence = 1.0;
   if (std::any_of(weights.begin(), weights.end(), [](double w) { return w > 0.0; })) {
-    sensor = matcher_ ? grid_->sensor_update_likelihood(likelihood)
+    sensor = matcher_ ? grid_->sensor_update_likelihood(likelihood.values, likelihood.window, likelihood.outside)
                       : grid_->sensor_update(log_likelihood, config_.sensor.min_likelihood);
   }
   summary_ = grid_->summary();
@@ -350,9 +353,10 @@ UpdateResult EmoiMarkovLocalizer::after_insert(int64_t stamp_ns) {
   return result;
 }
 
-cv::Mat_<float> EmoiMarkovLocalizer::masked_likelihood(const cv::Mat_<float>& previous_coarse,
-                                                       const Eigen::Vector2d& shift, double travel, double blur,
-                                                       std::vector<double>& weights) {
+EmoiMarkovLocalizer::WindowLikelihood EmoiMarkovLocalizer::masked_likelihood(const cv::Mat_<float>& previous_coarse,
+                                                                             const Eigen::Vector2d& shift,
+                                                                             double travel, double blur,
+                                                                             std::vector<double>& weights) {
   const Eigen::Vector3d position = last_odometry_->pose.translation();
   const double ground = position.z() - config_.base_height_m;
   const double heading_offset = normalize_angle(map_heading() - yaw_of(last_odometry_->pose.linear()));
@@ -366,27 +370,51 @@ cv::Mat_<float> EmoiMarkovLocalizer::masked_likelihood(const cv::Mat_<float>& pr
       local_map_->patch_reach_m(position.head<2>(), matcher_->cell_m(), matcher_->patch_radius(),
                                 previous_coarse.empty() ? 0.0 : max_correction),
       travelled_m_);
-  auto patch_under = [&](const Eigen::Matrix2d& distortion) {
-    return LocalElevationMap::bin_patch(cells, heading_offset, matcher_->cell_m(), matcher_->patch_radius(), ground,
-                                        distortion);
+  const PatchBinner binner(cells, heading_offset, matcher_->cell_m(), matcher_->patch_radius(), ground);
+  auto patch_under = [&](const Eigen::Matrix2d& distortion) { return binner.patch(distortion); };
+  auto keep_robot_side = [&](const MaskedEmoiMatcher::Match& match) {
+    for (size_t i = 0; i < match.robot_emoi.size(); ++i) {
+      last_robot_emoi_.push_back({match.robot_emoi[i], match.coverage[i], match.observed[i]});
+    }
   };
-  last_match_ = matcher_->match(patch_under(Eigen::Matrix2d::Identity()));
-  const MaskedEmoiMatcher::Match& match = *last_match_;
-  for (size_t i = 0; i < match.robot_emoi.size(); ++i) {
-    last_robot_emoi_.push_back({match.robot_emoi[i], match.coverage[i], match.observed[i]});
-  }
-  cv::Mat_<float> coarse = matcher_->coarse_log_likelihood(match, config_.sensor, &weights);
-  cv::exp(coarse, coarse);
+  const int fine_rows = grid_->geometry().height, fine_cols = grid_->geometry().width;
   distortion_ = DistortionReport{};
+  WindowLikelihood out;
   if (!previous_coarse.empty()) {
     // Where the prior holds (nearly) all its mass, marginalise the odometry's distortion since
-    // the last update: the local map rebuilt and the belief shifted under each hypothesis B.
+    // the last update (the local map rebuilt and the belief shifted under each hypothesis B),
+    // on those cells only: the sparse sensor model, no whole-map match.
     const double residual = residual_blur_m(config_.distortion, blur, travel, config_.min_blur_m);
-    distortion_ = apply_distortion_hypotheses(*matcher_, patch_under, hypotheses_, config_.distortion, config_.sensor,
-                                              previous_coarse, matcher_->pool(grid_->belief()), shift, residual,
-                                              coarse);
+    SupportLikelihood sparse =
+        support_likelihood(*matcher_, patch_under, hypotheses_, config_.distortion, config_.sensor, previous_coarse,
+                           matcher_->pool(grid_->belief(), grid_->occupied()), shift, residual);
+    if (!sparse.cells.empty()) {
+      distortion_ = sparse.report;
+      weights = sparse.weights;
+      keep_robot_side(sparse.identity);
+      // The diagnostics' match on the matching grid: the support's values, NaN elsewhere.
+      const int rows = matcher_->surface().geometry.height, cols = matcher_->surface().geometry.width;
+      MaskedEmoiMatcher::Match match = sparse.identity;
+      for (size_t k = 0; k < match.dsm_emoi.size(); ++k) {
+        cv::Mat_<float> layer(rows, cols, std::numeric_limits<float>::quiet_NaN());
+        for (size_t i = 0; i < sparse.cells.size(); ++i) {
+          layer(sparse.cells[i]) = sparse.identity.dsm_emoi[k](0, static_cast<int>(i));
+        }
+        match.dsm_emoi[k] = layer;
+      }
+      last_match_ = std::move(match);
+      out.values = support_likelihood_on_grid(*matcher_, sparse, fine_rows, fine_cols, out.window);
+      out.outside = sparse.outside;
+      return out;
+    }
   }
-  return matcher_->to_fine(coarse, grid_->geometry().height, grid_->geometry().width);
+  last_match_ = matcher_->match(patch_under(Eigen::Matrix2d::Identity()));
+  keep_robot_side(*last_match_);
+  cv::Mat_<float> coarse = matcher_->coarse_log_likelihood(*last_match_, config_.sensor, &weights);
+  cv::exp(coarse, coarse);
+  out.values = matcher_->to_fine(coarse, fine_rows, fine_cols);
+  out.window = cv::Rect(0, 0, fine_cols, fine_rows);
+  return out;
 }
 
 PoseEstimate EmoiMarkovLocalizer::estimate(int64_t stamp_ns) const {

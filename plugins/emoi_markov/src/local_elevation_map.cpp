@@ -221,24 +221,48 @@ LocalElevationMap::PatchCells LocalElevationMap::patch_cells(const Eigen::Vector
 cv::Mat_<float> LocalElevationMap::bin_patch(const PatchCells& cells, double heading_offset, double cell_m,
                                              int radius_cells, double centre_elevation,
                                              const Eigen::Matrix2d& distortion) {
-  const int side = 2 * radius_cells + 1;
+  return PatchBinner(cells, heading_offset, cell_m, radius_cells, centre_elevation).patch(distortion);
+}
+
+PatchBinner::PatchBinner(const LocalElevationMap::PatchCells& cells, double heading_offset, double cell_m,
+                         int radius_cells, double centre_elevation)
+    : rotation_(Eigen::Rotation2Dd(heading_offset).toRotationMatrix()),
+      cell_m_(cell_m),
+      radius_cells_(radius_cells),
+      centre_elevation_(centre_elevation),
+      elevation_(cells.elevation) {
+  const Eigen::Matrix2f to_map = (rotation_ / cell_m).cast<float>();
+  in_cells_.reserve(cells.elevation.size());
+  for (size_t k = 0; k < cells.elevation.size(); ++k) {
+    in_cells_.push_back(to_map * cells.relative[k]);
+    if (runs_.empty() || !(cells.since_written[k] == runs_.back().since_written)) {
+      runs_.push_back({k, k, cells.since_written[k]});
+    }
+    runs_.back().end = k + 1;
+  }
+}
+
+cv::Mat_<float> PatchBinner::patch(const Eigen::Matrix2d& distortion) const {
+  const int side = 2 * radius_cells_ + 1;
   cv::Mat_<double> sum(side, side, 0.0);
   cv::Mat_<int> count(side, side, 0);
-  const Eigen::Matrix2d rotation = Eigen::Rotation2Dd(heading_offset).toRotationMatrix();
-  const Eigen::Matrix2f to_map = (rotation / cell_m).cast<float>();
-  const Eigen::Matrix2f moved = (rotation * (distortion - Eigen::Matrix2d::Identity()) / cell_m).cast<float>();
-  for (size_t k = 0; k < cells.elevation.size(); ++k) {
-    const Eigen::Vector2f in_cells = to_map * cells.relative[k] + moved * cells.since_written[k];
-    const int j = cvRound(in_cells.x()) + radius_cells;
-    const int i = cvRound(in_cells.y()) + radius_cells;
-    if (i < 0 || j < 0 || i >= side || j >= side) continue;
-    sum(i, j) += cells.elevation[k];
-    count(i, j) += 1;
+  // A cell written at travel t moves by (distortion - I) (P_odom(t) - position), in the map frame.
+  const Eigen::Matrix2f moved = (rotation_ * (distortion - Eigen::Matrix2d::Identity()) / cell_m_).cast<float>();
+  for (const Run& run : runs_) {
+    const Eigen::Vector2f shift = moved * run.since_written;
+    for (size_t k = run.begin; k < run.end; ++k) {
+      const Eigen::Vector2f in_cells = in_cells_[k] + shift;
+      const int j = cvRound(in_cells.x()) + radius_cells_;
+      const int i = cvRound(in_cells.y()) + radius_cells_;
+      if (i < 0 || j < 0 || i >= side || j >= side) continue;
+      sum(i, j) += elevation_[k];
+      count(i, j) += 1;
+    }
   }
   cv::Mat_<float> patch(side, side, kUnknown);
   for (int i = 0; i < side; ++i) {
     for (int j = 0; j < side; ++j) {
-      if (count(i, j) > 0) patch(i, j) = static_cast<float>(sum(i, j) / count(i, j) - centre_elevation);
+      if (count(i, j) > 0) patch(i, j) = static_cast<float>(sum(i, j) / count(i, j) - centre_elevation_);
     }
   }
   return patch;

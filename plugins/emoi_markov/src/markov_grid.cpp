@@ -86,11 +86,13 @@ MarkovGrid::MarkovGrid(GridGeometry geometry, cv::Mat_<uchar> support)
 void MarkovGrid::set_uniform() {
   belief_ = cv::Mat_<float>(geometry_.height, geometry_.width, 0.0f);
   belief_.setTo(1.0f / static_cast<float>(support_cells_), support_);
+  occupied_ = cv::Rect(0, 0, geometry_.width, geometry_.height);
 }
 
 void MarkovGrid::set_gaussian(const Eigen::Vector2d& mean, double stddev_m) {
   const double s = std::max(stddev_m, geometry_.resolution);
   belief_ = cv::Mat_<float>(geometry_.height, geometry_.width, 0.0f);
+  occupied_ = cv::Rect(0, 0, geometry_.width, geometry_.height);
   for (int r = 0; r < geometry_.height; ++r) {
     const uchar* support = support_.ptr<uchar>(r);
     float* b = belief_.ptr<float>(r);
@@ -104,52 +106,88 @@ void MarkovGrid::set_gaussian(const Eigen::Vector2d& mean, double stddev_m) {
 }
 
 double MarkovGrid::normalise() {
-  const double mass = cv::sum(belief_)[0];
+  if (occupied_.area() == 0) return 0.0;
+  cv::Mat_<float> window = belief_(occupied_);
+  const double mass = cv::sum(window)[0];
   if (!(mass > 0.0)) return mass;
   const float scale = static_cast<float>(1.0 / mass);
-  for (int r = 0; r < belief_.rows; ++r) {
-    float* b = belief_.ptr<float>(r);
-    for (int c = 0; c < belief_.cols; ++c) {
+  int low_row = window.rows, high_row = -1, low_col = window.cols, high_col = -1;
+  for (int r = 0; r < window.rows; ++r) {
+    float* b = window.ptr<float>(r);
+    int first = -1, last = -1;
+    for (int c = 0; c < window.cols; ++c) {
       const float v = b[c] * scale;
       b[c] = v < kFlushBelow ? 0.0f : v;
+      if (b[c] > 0.0f) {
+        if (first < 0) first = c;
+        last = c;
+      }
     }
+    if (first < 0) continue;
+    low_row = std::min(low_row, r);
+    high_row = r;
+    low_col = std::min(low_col, first);
+    high_col = std::max(high_col, last);
   }
+  occupied_ = high_row < 0 ? cv::Rect()
+                           : cv::Rect(occupied_.x + low_col, occupied_.y + low_row, high_col - low_col + 1,
+                                      high_row - low_row + 1);
   return mass;
 }
 
+namespace {
+cv::Rect grown(const cv::Rect& r, int margin) {
+  return cv::Rect(r.x - margin, r.y - margin, r.width + 2 * margin, r.height + 2 * margin);
+}
+}  // namespace
+
 MotionUpdateReport MarkovGrid::motion_update(const Eigen::Vector2d& displacement_m, double blur_stddev_m) {
   MotionUpdateReport report;
-  report.mass_before = cv::sum(belief_)[0];
+  report.mass_before = occupied_.area() > 0 ? cv::sum(belief_(occupied_))[0] : 0.0;
   const double res = geometry_.resolution;
   const double sigma_cells = blur_stddev_m / res;
   const Eigen::Vector2d shift_cells = displacement_m / res;
+  const cv::Rect all(0, 0, belief_.cols, belief_.rows);
+  // Everything runs on the window the occupied cells can reach (outside it the result is zero,
+  // as on the whole grid with a zero border); a uniform belief's window is the whole grid.
+  cv::Rect window;
+  cv::Mat_<float> moved;
   if (sigma_cells > 3.0) {
     // Coarse-to-fine in spirit: a blur wider than 3 cells hides any sub-cell part of the shift
     // (at most half a cell), so the shift is rounded to whole cells and done as a copy.
     const int dx = static_cast<int>(std::lround(shift_cells.x())), dy = static_cast<int>(std::lround(shift_cells.y()));
-    cv::Mat_<float> moved(belief_.size(), 0.0f);
-    const cv::Rect all(0, 0, belief_.cols, belief_.rows);
-    const cv::Rect target = all & cv::Rect(dx, dy, belief_.cols, belief_.rows);
-    if (target.area() > 0) belief_(target - cv::Point(dx, dy)).copyTo(moved(target));
-    belief_ = moved;
-    for (int width : box_widths_for_gaussian(sigma_cells, 3)) {
-      if (width > 1) cv::blur(belief_, belief_, cv::Size(width, width), cv::Point(-1, -1), cv::BORDER_CONSTANT);
+    const std::vector<int> widths = box_widths_for_gaussian(sigma_cells, 3);
+    int reach = 0;
+    for (int width : widths) reach += width / 2;
+    const cv::Rect target = (occupied_ + cv::Point(dx, dy)) & all;
+    window = grown(target, reach) & all;
+    moved = cv::Mat_<float>(window.size(), 0.0f);
+    if (target.area() > 0) belief_(target - cv::Point(dx, dy)).copyTo(moved(target - window.tl()));
+    for (int width : widths) {
+      if (width > 1) cv::blur(moved, moved, cv::Size(width, width), cv::Point(-1, -1), cv::BORDER_CONSTANT);
     }
   } else {
-    if (shift_cells.squaredNorm() > 0.0) {
-      // bel-(x) = bel(x - u): bilinear shift, every source cell's weights sum to one.
-      const cv::Matx23d shift(1, 0, shift_cells.x(), 0, 1, shift_cells.y());
-      cv::Mat_<float> moved;
-      cv::warpAffine(belief_, moved, shift, belief_.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0.0);
-      belief_ = moved;
-    }
-    if (sigma_cells > 0.3) {
-      const int half = static_cast<int>(std::ceil(3.0 * sigma_cells));
-      cv::GaussianBlur(belief_, belief_, cv::Size(2 * half + 1, 2 * half + 1), sigma_cells, sigma_cells,
-                       cv::BORDER_CONSTANT);
+    // bel-(x) = bel(x - u): bilinear shift, every source cell's weights sum to one.
+    const int half = sigma_cells > 0.3 ? static_cast<int>(std::ceil(3.0 * sigma_cells)) : 0;
+    const cv::Rect shifted(occupied_.x + static_cast<int>(std::floor(shift_cells.x())),
+                           occupied_.y + static_cast<int>(std::floor(shift_cells.y())), occupied_.width + 1,
+                           occupied_.height + 1);
+    window = occupied_.area() > 0 ? grown(shifted, half + 1) & all : cv::Rect();
+    if (window.area() > 0) {
+      const cv::Matx23d shift(1, 0, shift_cells.x() - window.x, 0, 1, shift_cells.y() - window.y);
+      cv::warpAffine(belief_, moved, shift, window.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0.0);
+      if (half > 0) {
+        cv::GaussianBlur(moved, moved, cv::Size(2 * half + 1, 2 * half + 1), sigma_cells, sigma_cells,
+                         cv::BORDER_CONSTANT);
+      }
     }
   }
-  if (!full_support_) belief_.setTo(0.0f, support_ == 0);
+  if (occupied_.area() > 0) belief_(occupied_).setTo(0.0f);
+  occupied_ = window;
+  if (window.area() > 0) {
+    moved.copyTo(belief_(window));
+    if (!full_support_) belief_(window).setTo(0.0f, support_(window) == 0);
+  }
   const double mass = normalise();
   report.mass_lost = std::max(0.0, report.mass_before - mass);
   if (!(mass > 1e-30)) {
@@ -170,15 +208,34 @@ SensorUpdateReport MarkovGrid::sensor_update(const cv::Mat_<float>& log_likeliho
 }
 
 SensorUpdateReport MarkovGrid::sensor_update_likelihood(const cv::Mat_<float>& likelihood) {
-  SensorUpdateReport report;
   if (likelihood.size() != belief_.size()) throw InputError("likelihood grid does not match the belief grid");
+  return sensor_update_likelihood(likelihood, cv::Rect(0, 0, belief_.cols, belief_.rows), 0.0f);
+}
+
+SensorUpdateReport MarkovGrid::sensor_update_likelihood(const cv::Mat_<float>& window_likelihood,
+                                                        const cv::Rect& window, float outside) {
+  SensorUpdateReport report;
+  if (window_likelihood.size() != window.size()) throw InputError("likelihood window does not match its rectangle");
   double evidence = 0.0;
-  for (int r = 0; r < belief_.rows; ++r) {
+  // Only the occupied cells change (zero stays zero).
+  for (int r = occupied_.y; r < occupied_.y + occupied_.height; ++r) {
     float* b = belief_.ptr<float>(r);
-    const float* p = likelihood.ptr<float>(r);
+    const bool row_inside = r >= window.y && r < window.y + window.height;
+    const float* p = row_inside ? window_likelihood.ptr<float>(r - window.y) : nullptr;
+    const int in_begin = row_inside ? std::clamp(window.x, occupied_.x, occupied_.x + occupied_.width) : occupied_.x;
+    const int in_end =
+        row_inside ? std::clamp(window.x + window.width, in_begin, occupied_.x + occupied_.width) : occupied_.x;
     float row_sum = 0.0f;
-    for (int c = 0; c < belief_.cols; ++c) {
-      b[c] *= p[c];
+    for (int c = occupied_.x; c < in_begin; ++c) {
+      b[c] *= outside;
+      row_sum += b[c];
+    }
+    for (int c = in_begin; c < in_end; ++c) {
+      b[c] *= p[c - window.x];
+      row_sum += b[c];
+    }
+    for (int c = std::max(in_end, in_begin); c < occupied_.x + occupied_.width; ++c) {
+      b[c] *= outside;
       row_sum += b[c];
     }
     evidence += row_sum;
@@ -195,17 +252,22 @@ SensorUpdateReport MarkovGrid::sensor_update_likelihood(const cv::Mat_<float>& l
 
 BeliefSummary MarkovGrid::summary() const {
   BeliefSummary s;
+  const double res = geometry_.resolution;
+  if (occupied_.area() == 0) {
+    s.covariance = Eigen::Matrix2d::Identity() * (res * res / 12.0);
+    return s;
+  }
   double max_value = 0.0;
   cv::Point max_location;
-  cv::minMaxLoc(belief_, nullptr, &max_value, nullptr, &max_location);
+  cv::minMaxLoc(belief_(occupied_), nullptr, &max_value, nullptr, &max_location);
+  max_location += occupied_.tl();
   s.mode = geometry_.center_of(max_location.y, max_location.x);
   s.max_probability = max_value;
   double mass = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0, squares = 0;
-  const double res = geometry_.resolution;
-  for (int r = 0; r < geometry_.height; ++r) {
+  for (int r = occupied_.y; r < occupied_.y + occupied_.height; ++r) {
     const float* b = belief_.ptr<float>(r);
     const double dy = (r - max_location.y) * res;
-    for (int c = 0; c < geometry_.width; ++c) {
+    for (int c = occupied_.x; c < occupied_.x + occupied_.width; ++c) {
       const double p = b[c];
       if (p <= 0.0) continue;
       const double dx = (c - max_location.x) * res;

@@ -71,6 +71,8 @@ MaskedEmoiMatcher::MaskedEmoiMatcher(const ElevationMap& dsm, std::vector<double
       valid_(r, c) = 1.0f;
     }
   }
+  const cv::Mat nodata = (valid_ == 0.0f) / 255;  // 1 where no data
+  cv::integral(nodata, nodata_integral_, CV_32S);
   padded_rows_ = cv::getOptimalDFTSize(rows + patch_radius_);
   padded_cols_ = cv::getOptimalDFTSize(cols + patch_radius_);
   cv::Mat elevation = cv::Mat::zeros(padded_rows_, padded_cols_, CV_64F);
@@ -208,8 +210,17 @@ MaskedEmoiMatcher::Match MaskedEmoiMatcher::match_at(const cv::Mat_<float>& patc
   }
   std::stable_sort(terms.begin(), terms.end(), [](const Term& a, const Term& b) { return a.bucket < b.bucket; });
   std::vector<size_t> bucket_end(radii, 0);
+  // Per bucket: sum r^2 and the count, what the sums over the data mask give where every cell has data.
+  std::vector<float> bucket_moment(radii, 0.0f), bucket_count(radii, 0.0f);
+  std::vector<float> term_r2(terms.size());
+  std::vector<long> term_linear(terms.size());
   for (size_t t = 0, b = 0; b < radii; ++b) {
-    while (t < terms.size() && terms[t].bucket == b) ++t;
+    for (; t < terms.size() && terms[t].bucket == b; ++t) {
+      term_r2[t] = static_cast<float>(terms[t].r2_m);
+      term_linear[t] = terms[t].linear;
+      bucket_moment[b] += term_r2[t];
+      bucket_count[b] += 1.0f;
+    }
     bucket_end[b] = t;
   }
   const int n_cells = static_cast<int>(cells.size());
@@ -224,22 +235,43 @@ MaskedEmoiMatcher::Match MaskedEmoiMatcher::match_at(const cv::Mat_<float>& patc
     const double ground = ground_(x.y, x.x) - reference_;
     const long centre = static_cast<long>(x.y) * cols + x.x;
     const bool inside = x.x >= reach && x.y >= reach && x.x + reach < cols && x.y + reach < rows;
+    // Every cell of the patch's reach has data: only sum r^2 e is left to add up.
+    const bool all_data =
+        inside && nodata_integral_(x.y + reach + 1, x.x + reach + 1) - nodata_integral_(x.y - reach, x.x + reach + 1) -
+                          nodata_integral_(x.y + reach + 1, x.x - reach) + nodata_integral_(x.y - reach, x.x - reach) ==
+                      0;
     // Running sums over the buckets: sum r^2 e and sum r^2 over cells with data (e = 0 without), n.
     double m = 0.0, w = 0.0, n = 0.0;
     size_t t = 0;
     for (size_t b = 0; b < radii; ++b) {
       float bm = 0.0f, bw = 0.0f, bn = 0.0f;
-      for (; t < bucket_end[b]; ++t) {
-        const Term& term = terms[t];
-        if (!inside) {
-          const int r = x.y + term.dr, c = x.x + term.dc;
-          if (r < 0 || c < 0 || r >= rows || c >= cols) continue;
+      if (all_data) {
+        // Four partial sums: the adds do not wait on each other.
+        const float* e = elevation + centre;
+        float part[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+        for (; t + 4 <= bucket_end[b]; t += 4) {
+          part[0] += term_r2[t] * e[term_linear[t]];
+          part[1] += term_r2[t + 1] * e[term_linear[t + 1]];
+          part[2] += term_r2[t + 2] * e[term_linear[t + 2]];
+          part[3] += term_r2[t + 3] * e[term_linear[t + 3]];
         }
-        const long index = centre + term.linear;
-        const float r2 = static_cast<float>(term.r2_m);
-        bm += r2 * elevation[index];
-        bw += r2 * valid[index];
-        bn += valid[index];
+        for (; t < bucket_end[b]; ++t) part[0] += term_r2[t] * e[term_linear[t]];
+        bm = (part[0] + part[1]) + (part[2] + part[3]);
+        bw = bucket_moment[b];
+        bn = bucket_count[b];
+      } else {
+        for (; t < bucket_end[b]; ++t) {
+          const Term& term = terms[t];
+          if (!inside) {
+            const int r = x.y + term.dr, c = x.x + term.dc;
+            if (r < 0 || c < 0 || r >= rows || c >= cols) continue;
+          }
+          const long index = centre + term.linear;
+          const float r2 = term_r2[t];
+          bm += r2 * elevation[index];
+          bw += r2 * valid[index];
+          bn += valid[index];
+        }
       }
       m += bm;
       w += bw;
@@ -261,12 +293,39 @@ cv::Mat_<float> MaskedEmoiMatcher::to_fine(const cv::Mat_<float>& coarse, int fi
   return fine(cv::Rect(0, 0, fine_cols, fine_rows)).clone();
 }
 
+cv::Mat_<float> MaskedEmoiMatcher::to_fine_window(const cv::Mat_<float>& coarse_window, const cv::Rect& coarse_rect,
+                                                  int fine_rows, int fine_cols, cv::Rect& fine_rect) const {
+  if (coarse_window.size() != coarse_rect.size()) throw InputError("matching-grid window does not match its rectangle");
+  fine_rect = cv::Rect(coarse_rect.x * factor_, coarse_rect.y * factor_, coarse_rect.width * factor_,
+                       coarse_rect.height * factor_) &
+              cv::Rect(0, 0, fine_cols, fine_rows);
+  if (fine_rect.area() == 0) return cv::Mat_<float>(fine_rect.size(), 0.0f);
+  if (factor_ == 1) return coarse_window(cv::Rect(0, 0, fine_rect.width, fine_rect.height)).clone();
+  // Same phase as to_fine: fine cell (x + 0.5) / factor - 0.5 in coarse cells, offsets whole.
+  cv::Mat_<float> fine;
+  cv::resize(coarse_window, fine, cv::Size(coarse_window.cols * factor_, coarse_window.rows * factor_), 0, 0,
+             cv::INTER_LINEAR);
+  return fine(cv::Rect(0, 0, fine_rect.width, fine_rect.height)).clone();
+}
+
 cv::Mat_<float> MaskedEmoiMatcher::pool(const cv::Mat_<float>& fine) const {
+  return pool(fine, cv::Rect(0, 0, fine.cols, fine.rows));
+}
+
+cv::Mat_<float> MaskedEmoiMatcher::pool(const cv::Mat_<float>& fine, const cv::Rect& nonzero) const {
   cv::Mat_<float> coarse(coarse_.geometry.height, coarse_.geometry.width, 0.0f);
-  for (int r = 0; r < fine.rows; ++r) {
+  const cv::Rect area = nonzero & cv::Rect(0, 0, fine.cols, fine.rows);
+  const int last_col = coarse.cols - 1;
+  for (int r = area.y; r < area.y + area.height; ++r) {
     const float* f = fine.ptr<float>(r);
     float* c = coarse.ptr<float>(std::min(r / factor_, coarse.rows - 1));
-    for (int q = 0; q < fine.cols; ++q) c[std::min(q / factor_, coarse.cols - 1)] += f[q];
+    for (int q = area.x; q < area.x + area.width;) {
+      const int column = std::min(q / factor_, last_col);
+      const int end = column == last_col ? area.x + area.width : std::min((column + 1) * factor_, area.x + area.width);
+      float sum = 0.0f;
+      for (; q < end; ++q) sum += f[q];
+      c[column] += sum;
+    }
   }
   return coarse;
 }

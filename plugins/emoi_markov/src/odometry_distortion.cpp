@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 #include <Eigen/Geometry>
@@ -132,6 +133,65 @@ double residual_blur_m(const DistortionConfig& config, double blur_m, double tra
   return std::max({std::sqrt(std::max(blur_m * blur_m - spread2, 0.0)), 0.5 * spacing, min_blur_m});
 }
 
+SupportLikelihood support_likelihood(const MaskedEmoiMatcher& matcher,
+                                     const std::function<cv::Mat_<float>(const Eigen::Matrix2d&)>& patch_under,
+                                     const std::vector<DistortionHypothesis>& hypotheses,
+                                     const DistortionConfig& config, const SensorModelConfig& sensor,
+                                     const cv::Mat_<float>& previous, const cv::Mat_<float>& prior,
+                                     const Eigen::Vector2d& shift_m, double residual_blur_m) {
+  SupportLikelihood out;
+  if (hypotheses.size() <= 1) return out;
+  out.cells = cells_holding_mass(prior, config.support_mass, config.max_cells);
+  if (out.cells.empty()) return out;
+  std::vector<std::vector<float>> likelihoods;
+  bool identity_seen = false;
+  for (const DistortionHypothesis& h : hypotheses) {
+    MaskedEmoiMatcher::Match match = matcher.match_at(patch_under(h.transform), out.cells);
+    const bool identity = !identity_seen && h.transform.isApprox(Eigen::Matrix2d::Identity(), 1e-12);
+    cv::Mat_<float> l = matcher.coarse_log_likelihood(match, sensor, identity ? &out.weights : nullptr);
+    cv::exp(l, l);
+    likelihoods.emplace_back(l.begin(), l.end());
+    if (identity) {
+      out.identity = std::move(match);
+      identity_seen = true;
+    }
+  }
+  if (!identity_seen) {
+    out.identity = matcher.match_at(patch_under(Eigen::Matrix2d::Identity()), out.cells);
+    matcher.coarse_log_likelihood(out.identity, sensor, &out.weights);
+  }
+  out.likelihood = mixture_likelihood(previous, shift_m / matcher.cell_m(), hypotheses,
+                                      residual_blur_m / matcher.cell_m(), out.cells, likelihoods,
+                                      &out.report.posterior);
+  const float floor = static_cast<float>(sensor.min_likelihood);
+  out.outside = std::numeric_limits<float>::max();
+  for (float& l : out.likelihood) {
+    l = std::max(l, floor);
+    out.outside = std::min(out.outside, l);
+  }
+  DistortionReport& report = out.report;
+  report.cells = out.cells.size();
+  report.scale = report.direction_rad = 0.0;
+  for (size_t b = 0; b < hypotheses.size(); ++b) {
+    report.scale += report.posterior[b] * hypotheses[b].scale;
+    report.direction_rad += report.posterior[b] * hypotheses[b].direction_rad;
+  }
+  return out;
+}
+
+cv::Mat_<float> support_likelihood_on_grid(const MaskedEmoiMatcher& matcher, const SupportLikelihood& sparse,
+                                           int fine_rows, int fine_cols, cv::Rect& fine_rect) {
+  if (sparse.cells.empty()) throw InputError("sparse likelihood without support cells");
+  cv::Rect bounds(sparse.cells[0], cv::Size(1, 1));
+  for (const cv::Point& p : sparse.cells) bounds |= cv::Rect(p, cv::Size(1, 1));
+  const ElevationMap& surface = matcher.surface();
+  bounds = cv::Rect(bounds.x - 2, bounds.y - 2, bounds.width + 4, bounds.height + 4) &
+           cv::Rect(0, 0, surface.geometry.width, surface.geometry.height);
+  cv::Mat_<float> window(bounds.size(), sparse.outside);
+  for (size_t i = 0; i < sparse.cells.size(); ++i) window(sparse.cells[i] - bounds.tl()) = sparse.likelihood[i];
+  return matcher.to_fine_window(window, bounds, fine_rows, fine_cols, fine_rect);
+}
+
 DistortionReport apply_distortion_hypotheses(const MaskedEmoiMatcher& matcher,
                                              const std::function<cv::Mat_<float>(const Eigen::Matrix2d&)>& patch_under,
                                              const std::vector<DistortionHypothesis>& hypotheses,
@@ -139,28 +199,10 @@ DistortionReport apply_distortion_hypotheses(const MaskedEmoiMatcher& matcher,
                                              const cv::Mat_<float>& previous, const cv::Mat_<float>& prior,
                                              const Eigen::Vector2d& shift_m, double residual_blur_m,
                                              cv::Mat_<float>& likelihood) {
-  DistortionReport report;
-  if (hypotheses.size() <= 1) return report;
-  const std::vector<cv::Point> cells = cells_holding_mass(prior, config.support_mass, config.max_cells);
-  if (cells.empty()) return report;
-  std::vector<std::vector<float>> likelihoods;
-  for (const DistortionHypothesis& h : hypotheses) {
-    cv::Mat_<float> l = matcher.coarse_log_likelihood(matcher.match_at(patch_under(h.transform), cells), sensor);
-    cv::exp(l, l);
-    likelihoods.emplace_back(l.begin(), l.end());
-  }
-  const std::vector<float> mixed = mixture_likelihood(previous, shift_m / matcher.cell_m(), hypotheses,
-                                                      residual_blur_m / matcher.cell_m(), cells, likelihoods,
-                                                      &report.posterior);
-  const float floor = static_cast<float>(sensor.min_likelihood);
-  for (size_t i = 0; i < cells.size(); ++i) likelihood(cells[i].y, cells[i].x) = std::max(mixed[i], floor);
-  report.cells = cells.size();
-  report.scale = report.direction_rad = 0.0;
-  for (size_t b = 0; b < hypotheses.size(); ++b) {
-    report.scale += report.posterior[b] * hypotheses[b].scale;
-    report.direction_rad += report.posterior[b] * hypotheses[b].direction_rad;
-  }
-  return report;
+  const SupportLikelihood sparse =
+      support_likelihood(matcher, patch_under, hypotheses, config, sensor, previous, prior, shift_m, residual_blur_m);
+  for (size_t i = 0; i < sparse.cells.size(); ++i) likelihood(sparse.cells[i].y, sparse.cells[i].x) = sparse.likelihood[i];
+  return sparse.report;
 }
 
 }  // namespace locd::emoi

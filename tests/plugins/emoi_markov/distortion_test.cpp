@@ -3,6 +3,7 @@
 // masked sums against the DFT match.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -10,9 +11,12 @@
 #include <Eigen/Geometry>
 
 #include "locd/emoi_markov/local_elevation_map.hpp"
+#include "locd/emoi_markov/markov_grid.hpp"
 #include "locd/emoi_markov/masked_emoi.hpp"
 #include "locd/emoi_markov/odometry_distortion.hpp"
 #include "locd/sdk/errors.hpp"
+
+#include <opencv2/imgproc.hpp>
 
 namespace {
 
@@ -280,6 +284,127 @@ TEST(DistortionMixture, HypothesisFreeLocalMapKeepsThePlainLikelihood) {
                 .cells,
             0u);
   EXPECT_EQ(cv::norm(untouched, plain, cv::NORM_INF), 0.0);
+}
+
+// The sparse sensor model (no whole-map match) against the dense one it replaces: the same L_mix
+// on the support cells, the smallest of them everywhere else; on the belief grid the same
+// interpolated likelihood where only support cells are interpolated; the posteriors proportional
+// there; both normalised; and the mass off the support bounded by what the prior held there.
+TEST(SparseSensorModel, EqualsTheDenseModelOnTheSupportAndConservesMass) {
+  const ElevationMap map = rough_map(240, 0.25, 13, 0.05);  // belief grid 240^2, matching grid 120^2
+  MaskedEmoiMatcher matcher(map, {3.0, 6.0}, 0.5);
+  ASSERT_EQ(matcher.factor(), 2);
+  const int half = matcher.patch_radius();
+  const auto& coarse_map = matcher.surface().elevation;
+  // The local map rebuilt under B differs from hypothesis to hypothesis.
+  auto patch_under = [&](const Eigen::Matrix2d& b) {
+    cv::Mat_<float> patch(2 * half + 1, 2 * half + 1, kNaN);
+    const int drift = static_cast<int>(std::lround(4.0 * (b(0, 0) - 1.0)));
+    for (int i = -half; i <= half; ++i)
+      for (int j = -half; j <= half; ++j)
+        if (i > -4) patch(i + half, j + half) = coarse_map(60 + i, 55 + j + drift) - coarse_map(60, 55);
+    return patch;
+  };
+  SensorModelConfig sensor;
+  sensor.min_coverage = 0.05;
+  sensor.min_likelihood = 1e-6;
+  const auto hypotheses = distortion_hypotheses(0.1, 0.1, 5);
+  DistortionConfig config;
+  config.support_mass = 0.999;
+  // Two grids with the same concentrated belief; previous = the belief one step back on the matching grid.
+  MarkovGrid dense_grid(map.geometry, cv::Mat_<uchar>(240, 240, uchar(1)));
+  dense_grid.set_gaussian(Eigen::Vector2d(27.5, 30.0), 1.0);
+  MarkovGrid sparse_grid(map.geometry, cv::Mat_<uchar>(240, 240, uchar(1)));
+  sparse_grid.set_gaussian(Eigen::Vector2d(27.5, 30.0), 1.0);
+  const cv::Mat_<float> prior = matcher.pool(dense_grid.belief(), dense_grid.occupied());
+  EXPECT_EQ(cv::norm(prior, matcher.pool(dense_grid.belief()), cv::NORM_INF), 0.0);
+  cv::Mat_<float> previous;
+  cv::warpAffine(prior, previous, cv::Matx23d(1, 0, -2.0, 0, 1, -1.0), prior.size());
+  const Eigen::Vector2d shift_m(1.0, 0.5);
+
+  cv::Mat_<float> dense = matcher.coarse_log_likelihood(matcher.match(patch_under(Eigen::Matrix2d::Identity())), sensor);
+  cv::exp(dense, dense);
+  const DistortionReport dense_report =
+      apply_distortion_hypotheses(matcher, patch_under, hypotheses, config, sensor, previous, prior, shift_m, 0.5, dense);
+  const SupportLikelihood sparse =
+      support_likelihood(matcher, patch_under, hypotheses, config, sensor, previous, prior, shift_m, 0.5);
+  ASSERT_GT(sparse.cells.size(), 20u);
+  EXPECT_EQ(sparse.report.cells, dense_report.cells);
+  ASSERT_EQ(sparse.report.posterior.size(), dense_report.posterior.size());
+  for (size_t b = 0; b < hypotheses.size(); ++b) EXPECT_EQ(sparse.report.posterior[b], dense_report.posterior[b]);
+  // The support holds the asked mass; L_mix there is the dense model's, cell for cell.
+  double held = 0.0, smallest = 1e9;
+  cv::Mat_<uchar> on_support(prior.size(), uchar(0));
+  for (size_t i = 0; i < sparse.cells.size(); ++i) {
+    const cv::Point& x = sparse.cells[i];
+    held += prior(x);
+    on_support(x) = 1;
+    EXPECT_EQ(sparse.likelihood[i], dense(x)) << x;
+    EXPECT_GE(sparse.likelihood[i], static_cast<float>(sensor.min_likelihood));
+    smallest = std::min(smallest, static_cast<double>(sparse.likelihood[i]));
+  }
+  EXPECT_GE(held, 0.999 * cv::sum(prior)[0]);
+  EXPECT_EQ(sparse.outside, static_cast<float>(smallest));
+  // The identity hypothesis' match: the robot side of the dense match, weights from it.
+  const auto full = matcher.match(patch_under(Eigen::Matrix2d::Identity()));
+  std::vector<double> weights;
+  matcher.coarse_log_likelihood(full, sensor, &weights);
+  ASSERT_EQ(sparse.identity.robot_emoi.size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {
+    EXPECT_DOUBLE_EQ(sparse.identity.robot_emoi[k], full.robot_emoi[k]);
+    EXPECT_DOUBLE_EQ(sparse.weights[k], weights[k]);
+  }
+
+  // On the belief grid: the window equals the whole-grid interpolation of (support: L_mix, elsewhere: outside).
+  cv::Mat_<float> filled(prior.size(), sparse.outside);
+  for (size_t i = 0; i < sparse.cells.size(); ++i) filled(sparse.cells[i]) = sparse.likelihood[i];
+  const cv::Mat_<float> filled_fine = matcher.to_fine(filled, 240, 240);
+  cv::Rect window;
+  const cv::Mat_<float> values = support_likelihood_on_grid(matcher, sparse, 240, 240, window);
+  ASSERT_EQ(values.size(), window.size());
+  for (int r = 0; r < 240; ++r)
+    for (int c = 0; c < 240; ++c) {
+      const float expected = filled_fine(r, c);
+      const float got = window.contains({c, r}) ? values(r - window.y, c - window.x) : sparse.outside;
+      ASSERT_NEAR(got, expected, 1e-6f * expected) << r << ", " << c;
+    }
+  // The posteriors: both normalised; proportional where the belief-grid cell interpolates
+  // support cells only (the dense one has the plain likelihood elsewhere, the sparse `outside`).
+  dense_grid.sensor_update_likelihood(matcher.to_fine(dense, 240, 240));
+  const auto report = sparse_grid.sensor_update_likelihood(values, window, sparse.outside);
+  EXPECT_TRUE(report.applied);
+  EXPECT_NEAR(cv::sum(dense_grid.belief())[0], 1.0, 1e-5);
+  EXPECT_NEAR(cv::sum(sparse_grid.belief())[0], 1.0, 1e-5);
+  double ratio_sum = 0.0, compared_mass = 0.0, far_prior = 0.0, far_posterior = 0.0;
+  std::vector<double> ratios;
+  MarkovGrid prior_grid(map.geometry, cv::Mat_<uchar>(240, 240, uchar(1)));
+  prior_grid.set_gaussian(Eigen::Vector2d(27.5, 30.0), 1.0);
+  for (int r = 0; r < 240; ++r)
+    for (int c = 0; c < 240; ++c) {
+      const int cr = r / 2, cc = c / 2;
+      int support_near = 0;  // of the 3 x 3 matching cells around this one
+      for (int i = -1; i <= 1; ++i)
+        for (int j = -1; j <= 1; ++j) support_near += on_support(std::clamp(cr + i, 0, 119), std::clamp(cc + j, 0, 119));
+      const double d = dense_grid.belief()(r, c), p = sparse_grid.belief()(r, c);
+      if (support_near == 0) {  // far from the support: exactly `outside` here
+        far_prior += prior_grid.belief()(r, c);
+        far_posterior += p;
+      }
+      if (support_near < 9 || d < 1e-7) continue;
+      ratios.push_back(p / d);
+      ratio_sum += p / d;
+      compared_mass += p;
+    }
+  ASSERT_GT(ratios.size(), 50u);
+  EXPECT_GT(compared_mass, 0.5);
+  const double mean_ratio = ratio_sum / static_cast<double>(ratios.size());
+  for (double q : ratios) ASSERT_NEAR(q, mean_ratio, 1e-4 * mean_ratio);
+  // The normalisers differ only by what the cells off the support contribute: < 1 - support_mass.
+  EXPECT_NEAR(mean_ratio, 1.0, 2e-3);
+  // Far from the support every cell gets the smallest likelihood of all: its share cannot grow,
+  // and it held less than 1 - support_mass of the prior.
+  EXPECT_LE(far_prior, 1.0 - held / cv::sum(prior)[0] + 1e-6);
+  EXPECT_LE(far_posterior, far_prior + 1e-7);
 }
 
 }  // namespace

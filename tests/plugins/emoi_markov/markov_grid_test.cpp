@@ -83,6 +83,60 @@ TEST(MarkovGrid, MotionUpdateConservesMassShiftsMeanAndAddsVariance) {
   }
 }
 
+// The motion update runs on the window the occupied cells can reach: the same as shift + blur
+// on the whole grid (zero border), for both blur paths, near a map edge too; cells outside
+// occupied() are zero; the windowed sensor update (likelihood on a window, one value outside)
+// equals the whole-grid update with that likelihood.
+TEST(MarkovGrid, WindowedUpdatesEqualTheWholeGrid) {
+  for (double blur : {0.15, 1.2}) {
+    for (const Eigen::Vector2d& start : {Eigen::Vector2d(15.0, 12.0), Eigen::Vector2d(2.0, 27.5)}) {
+      MarkovGrid grid(geometry(300, 0.1), all_cells(300));
+      grid.set_gaussian(start, 0.5);
+      EXPECT_LT(grid.occupied().area(), 300 * 300);  // tails below 1e-30 are flushed
+      const cv::Mat_<float> before = grid.belief().clone();
+      const Eigen::Vector2d shift(1.23, -0.77);
+      grid.motion_update(shift, blur);
+      cv::Mat_<float> expected;
+      const double sigma = blur / 0.1;
+      if (sigma > 3.0) {
+        const int dx = static_cast<int>(std::lround(12.3)), dy = static_cast<int>(std::lround(-7.7));
+        cv::warpAffine(before, expected, cv::Matx23d(1, 0, dx, 0, 1, dy), before.size(), cv::INTER_NEAREST,
+                       cv::BORDER_CONSTANT, 0.0);
+        for (int width : box_widths_for_gaussian(sigma, 3))
+          cv::blur(expected, expected, cv::Size(width, width), cv::Point(-1, -1), cv::BORDER_CONSTANT);
+      } else {
+        cv::warpAffine(before, expected, cv::Matx23d(1, 0, 12.3, 0, 1, -7.7), before.size(), cv::INTER_LINEAR,
+                       cv::BORDER_CONSTANT, 0.0);
+        const int half = static_cast<int>(std::ceil(3.0 * sigma));
+        cv::GaussianBlur(expected, expected, cv::Size(2 * half + 1, 2 * half + 1), sigma, sigma, cv::BORDER_CONSTANT);
+      }
+      expected /= cv::sum(expected)[0];
+      double peak = 0.0;
+      cv::minMaxLoc(expected, nullptr, &peak);
+      EXPECT_LT(cv::norm(grid.belief(), expected, cv::NORM_INF), 1e-5 * peak) << "blur " << blur;
+      EXPECT_NEAR(cv::sum(grid.belief())[0], 1.0, 1e-5);
+      cv::Mat_<uchar> outside(300, 300, uchar(1));
+      outside(grid.occupied()).setTo(0);
+      EXPECT_EQ(cv::countNonZero((grid.belief() != 0.0f) & outside), 0);
+      // Sensor update: a likelihood on a window, 0.01 elsewhere, against the same on the whole grid.
+      MarkovGrid whole(geometry(300, 0.1), all_cells(300));
+      whole.set_gaussian(start, 0.5);
+      whole.motion_update(shift, blur);
+      const cv::Rect window(100, 60, 80, 90);
+      cv::Mat_<float> values(window.size());
+      cv::randu(values, 0.0f, 1.0f);
+      cv::Mat_<float> full(300, 300, 0.01f);
+      values.copyTo(full(window));
+      const auto windowed = grid.sensor_update_likelihood(values, window, 0.01f);
+      const auto reference = whole.sensor_update_likelihood(full);
+      EXPECT_NEAR(windowed.evidence, reference.evidence, 1e-5 * reference.evidence);
+      cv::minMaxLoc(whole.belief(), nullptr, &peak);
+      EXPECT_LT(cv::norm(grid.belief(), whole.belief(), cv::NORM_INF), 1e-6 * peak);
+      EXPECT_NEAR(cv::sum(grid.belief())[0], 1.0, 1e-5);
+    }
+  }
+}
+
 TEST(MarkovGrid, MassPushedOffTheMapIsReportedAndTheRestRenormalised) {
   MarkovGrid grid(geometry(100, 0.1), all_cells(100));
   grid.set_gaussian({9.0, 5.0}, 0.2);

@@ -57,7 +57,8 @@ class EmoiMarkovLocalizer : public Localizer {
   bool layers_from_cache() const { return layers_from_cache_; }
   const EmoiLayers* full_disk_layers() const { return layers_ ? &*layers_ : nullptr; }
   const MaskedEmoiMatcher* matcher() const { return matcher_.get(); }
-  // The masked model's last match (DSM EMOI_M on the matching grid), for diagnostics.
+  // The masked model's last match (DSM EMOI_M on the matching grid; with the sparse model only on
+  // the support, NaN elsewhere), for diagnostics.
   const std::optional<MaskedEmoiMatcher::Match>& last_match() const { return last_match_; }
 
  private:
@@ -66,14 +67,19 @@ class EmoiMarkovLocalizer : public Localizer {
   UpdateResult on_scan(const LaserScan& scan);
   UpdateResult on_cloud(const PointCloud& cloud);
   UpdateResult after_insert(int64_t stamp_ns);
-  // The masked likelihood on the DSM grid; with distortion hypotheses, L_mix where the prior
-  // holds its mass (odometry_distortion.hpp). previous_coarse: the belief before the motion
-  // update on the matching grid (empty: no hypotheses); shift, travel, blur: that motion update's.
-  cv::Mat_<float> masked_likelihood(const cv::Mat_<float>& previous_coarse, const Eigen::Vector2d& shift,
-                                    double travel, double blur, std::vector<double>& weights);
-  // The masked likelihood on the DSM grid; with distortion hypotheses, L_mix where the prior
-  // holds its mass (odometry_distortion.hpp). previous: the belief before the motion update.
-  cv::Mat_<float> masked_likelihood(const cv::Mat_<float>& previous_coarse, std::vector<double>& weights);
+  // p(z|x) on the DSM grid: `values` on `window`, `outside` everywhere else.
+  struct WindowLikelihood {
+    cv::Mat_<float> values;
+    cv::Rect window;
+    float outside = 0.0f;
+  };
+  // The masked likelihood. With distortion hypotheses and a concentrated prior, the sparse model:
+  // L_mix on the cells holding the prior's mass, one value elsewhere, no whole-map DFT match
+  // (odometry_distortion.hpp); otherwise the DFT match on the whole map. previous_coarse: the
+  // belief before the motion update on the matching grid (empty: no hypotheses); shift, travel,
+  // blur: that motion update's.
+  WindowLikelihood masked_likelihood(const cv::Mat_<float>& previous_coarse, const Eigen::Vector2d& shift,
+                                     double travel, double blur, std::vector<double>& weights);
   Eigen::Isometry3d base_in_odom() const;
   double map_heading() const;
   PoseEstimate estimate(int64_t stamp_ns) const;

@@ -113,4 +113,28 @@ class LocalElevationMap {
   std::deque<std::pair<double, Eigen::Vector2d>> trajectory_;  // (travel, odom position), increasing travel
 };
 
+// bin_patch for many distortions of one set of cells (the hypotheses of one sensor update): the
+// cells' map-frame positions are rotated once, and the cells written at the same travel mark
+// (the same displacement since written) are moved together.
+class PatchBinner {
+ public:
+  PatchBinner(const LocalElevationMap::PatchCells& cells, double heading_offset, double cell_m, int radius_cells,
+              double centre_elevation);
+  // The same as LocalElevationMap::bin_patch(cells, ..., distortion).
+  cv::Mat_<float> patch(const Eigen::Matrix2d& distortion = Eigen::Matrix2d::Identity()) const;
+
+ private:
+  struct Run {  // consecutive cells sharing since_written
+    size_t begin, end;
+    Eigen::Vector2f since_written;
+  };
+  Eigen::Matrix2d rotation_;
+  double cell_m_;
+  int radius_cells_;
+  double centre_elevation_;
+  std::vector<Eigen::Vector2f> in_cells_;  // map frame, matching cells, as odometry placed them
+  std::vector<float> elevation_;
+  std::vector<Run> runs_;
+};
+
 }  // namespace locd::emoi

@@ -83,17 +83,26 @@ class MarkovGrid {
   SensorUpdateReport sensor_update(const cv::Mat_<float>& log_likelihood, double min_likelihood);
   // The same with p(z|x) given (already floored, finite, >= 0).
   SensorUpdateReport sensor_update_likelihood(const cv::Mat_<float>& likelihood);
+  // The same with p(z|x) = window_likelihood(x - window.tl()) inside `window` and `outside`
+  // everywhere else (the sparse sensor model: likelihood evaluated on a window only).
+  SensorUpdateReport sensor_update_likelihood(const cv::Mat_<float>& window_likelihood, const cv::Rect& window,
+                                              float outside);
 
   BeliefSummary summary() const;
   const cv::Mat_<float>& belief() const { return belief_; }
-  cv::Mat_<float>& belief() { return belief_; }
+  // Every cell outside this rectangle holds zero (a concentrated belief: the updates and the
+  // summary run on it alone; a uniform belief: the whole grid).
+  const cv::Rect& occupied() const { return occupied_; }
   const GridGeometry& geometry() const { return geometry_; }
   const cv::Mat_<uchar>& support() const { return support_; }
 
  private:
-  double normalise();  // also flushes values below 1e-30 to zero (no denormals)
+  // Normalises over occupied_, flushes values below 1e-30 to zero (no denormals) and shrinks
+  // occupied_ to the cells left non-zero. Returns the mass before.
+  double normalise();
   GridGeometry geometry_;
   cv::Mat_<float> belief_;
+  cv::Rect occupied_;
   cv::Mat_<uchar> support_;
   size_t support_cells_ = 0;
   bool full_support_ = false;

@@ -57,8 +57,16 @@ class MaskedEmoiMatcher {
                              std::vector<double>* weights = nullptr) const;
   // A matching-grid field (likelihood) interpolated bilinearly to the DSM grid.
   cv::Mat_<float> to_fine(const cv::Mat_<float>& coarse, int fine_rows, int fine_cols) const;
+  // The same for a window of the matching grid (coarse_rect) whose cells outside it are all
+  // equal: returns the DSM-grid values on fine_rect (out) = coarse_rect scaled and clipped to the
+  // fine grid; every fine cell outside fine_rect interpolates that constant. Equal to to_fine on
+  // the whole grid inside fine_rect when coarse_rect keeps one constant cell around what varies.
+  cv::Mat_<float> to_fine_window(const cv::Mat_<float>& coarse_window, const cv::Rect& coarse_rect, int fine_rows,
+                                 int fine_cols, cv::Rect& fine_rect) const;
   // A DSM-grid field (belief) summed into matching-grid cells (mass is kept).
   cv::Mat_<float> pool(const cv::Mat_<float>& fine) const;
+  // The same when the field is zero outside `nonzero` (only that window is read).
+  cv::Mat_<float> pool(const cv::Mat_<float>& fine, const cv::Rect& nonzero) const;
 
  private:
   // The robot side of eq. 7 on M (robot_emoi, coverage, observed, offset_gain) and, per radius,
@@ -75,6 +83,7 @@ class MaskedEmoiMatcher {
   ElevationMap coarse_;            // max-pooled
   cv::Mat_<float> ground_;         // centre elevations (the pooled DSM)
   cv::Mat_<float> filled_, valid_; // pooled DSM minus reference_ (0 where no data), 1 where data
+  cv::Mat_<int> nodata_integral_;  // integral image of the cells without data (match_at's fast path)
   double reference_ = 0.0;
   int padded_rows_ = 0, padded_cols_ = 0;
   cv::Mat elevation_spectrum_, valid_spectrum_;

@@ -76,7 +76,35 @@ struct DistortionReport {
   std::vector<double> posterior;        // per hypothesis, sums to one
 };
 
-// The sensor model of the masked match with the odometry's distortion marginalised:
+// The sparse sensor model once the prior is concentrated: L_mix (floored at
+// sensor.min_likelihood) by direct sums on the matching cells holding support_mass of the prior
+// (at most max_cells of them), and nothing computed anywhere else. Every other cell gets one
+// likelihood, `outside`: the smallest on the support. They hold less than 1 - support_mass of
+// the prior, so whatever they would get moves at most that much mass; with the smallest support
+// value they can neither take over the posterior nor be wiped out by the floor.
+struct SupportLikelihood {
+  std::vector<cv::Point> cells;          // the support, matching grid (x = column); empty: prior too spread
+  std::vector<float> likelihood;         // L_mix per support cell, floored
+  float outside = 0.0f;                  // every other cell's likelihood
+  MaskedEmoiMatcher::Match identity;     // the match of the local map as odometry placed it (B = I), at the cells
+  std::vector<double> weights;           // its per-radius weights (coverage_weight)
+  DistortionReport report;
+};
+SupportLikelihood support_likelihood(const MaskedEmoiMatcher& matcher,
+                                     const std::function<cv::Mat_<float>(const Eigen::Matrix2d&)>& patch_under,
+                                     const std::vector<DistortionHypothesis>& hypotheses,
+                                     const DistortionConfig& config, const SensorModelConfig& sensor,
+                                     const cv::Mat_<float>& previous, const cv::Mat_<float>& prior,
+                                     const Eigen::Vector2d& shift_m, double residual_blur_m);
+
+// The sparse likelihood on the DSM (belief) grid: returned on fine_rect (out), the support's
+// bounding box (and a margin, so the bilinear interpolation sees `outside` around it); every
+// other cell of the belief grid gets sparse.outside.
+cv::Mat_<float> support_likelihood_on_grid(const MaskedEmoiMatcher& matcher, const SupportLikelihood& sparse,
+                                           int fine_rows, int fine_cols, cv::Rect& fine_rect);
+
+// The dense form, the reference of the sparse one: the sensor model of the masked match with the
+// odometry's distortion marginalised:
 //   likelihood: on entry exp(log p(z|x)) of the local map as odometry placed it, on the matching
 //     grid; on return L_mix (floored at sensor.min_likelihood) on the cells where the prior
 //     (after the motion update, pooled to the matching grid) holds support_mass, if that takes at
