@@ -188,7 +188,7 @@ void masked_update(benchmark::State& state, bool with_motion, int distortion_nod
       // As the localizer: the remembered cells once, binned per hypothesis; the sparse model on
       // the prior's support.
       const PatchBinner binner(local_map.patch_cells(position, reach, 15.0), 0.0, matcher.cell_m(),
-                               matcher.patch_radius(), ground);
+                               matcher.patch_radius(), ground, max_correction);
       const SupportLikelihood sparse = support_likelihood(
           matcher, [&](const Eigen::Matrix2d& b) { return binner.patch(b); }, hypotheses, distortion, sensor,
           previous, matcher.pool(grid.belief(), grid.occupied()), shift,

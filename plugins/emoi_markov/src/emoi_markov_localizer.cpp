@@ -365,12 +365,12 @@ EmoiMarkovLocalizer::WindowLikelihood EmoiMarkovLocalizer::masked_likelihood(con
   for (const DistortionHypothesis& h : hypotheses_) {
     max_correction = std::max(max_correction, (h.transform - Eigen::Matrix2d::Identity()).norm());
   }
+  if (previous_coarse.empty()) max_correction = 0.0;
   const LocalElevationMap::PatchCells cells = local_map_->patch_cells(
       position.head<2>(),
-      local_map_->patch_reach_m(position.head<2>(), matcher_->cell_m(), matcher_->patch_radius(),
-                                previous_coarse.empty() ? 0.0 : max_correction),
+      local_map_->patch_reach_m(position.head<2>(), matcher_->cell_m(), matcher_->patch_radius(), max_correction),
       travelled_m_);
-  const PatchBinner binner(cells, heading_offset, matcher_->cell_m(), matcher_->patch_radius(), ground);
+  const PatchBinner binner(cells, heading_offset, matcher_->cell_m(), matcher_->patch_radius(), ground, max_correction);
   auto patch_under = [&](const Eigen::Matrix2d& distortion) { return binner.patch(distortion); };
   auto keep_robot_side = [&](const MaskedEmoiMatcher::Match& match) {
     for (size_t i = 0; i < match.robot_emoi.size(); ++i) {

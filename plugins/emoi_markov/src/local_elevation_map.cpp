@@ -225,27 +225,37 @@ cv::Mat_<float> LocalElevationMap::bin_patch(const PatchCells& cells, double hea
 }
 
 PatchBinner::PatchBinner(const LocalElevationMap::PatchCells& cells, double heading_offset, double cell_m,
-                         int radius_cells, double centre_elevation)
+                         int radius_cells, double centre_elevation, double max_correction)
     : rotation_(Eigen::Rotation2Dd(heading_offset).toRotationMatrix()),
       cell_m_(cell_m),
       radius_cells_(radius_cells),
       centre_elevation_(centre_elevation),
-      elevation_(cells.elevation) {
+      max_correction_(max_correction) {
   const Eigen::Matrix2f to_map = (rotation_ / cell_m).cast<float>();
-  in_cells_.reserve(cells.elevation.size());
-  for (size_t k = 0; k < cells.elevation.size(); ++k) {
-    in_cells_.push_back(to_map * cells.relative[k]);
+  const size_t n = cells.elevation.size();
+  in_cells_.reserve(n);
+  elevation_.reserve(n);
+  for (size_t k = 0; k < n; ++k) {
+    const Eigen::Vector2f in_cells = to_map * cells.relative[k];
+    // |(B - I) R v| <= |B - I|_F |v|: a cell farther out than that from the patch never lands in it.
+    const double reach = radius_cells + 1.0 + max_correction * cells.since_written[k].norm() / cell_m;
+    if (std::abs(in_cells.x()) > reach || std::abs(in_cells.y()) > reach) continue;
     if (runs_.empty() || !(cells.since_written[k] == runs_.back().since_written)) {
-      runs_.push_back({k, k, cells.since_written[k]});
+      runs_.push_back({in_cells_.size(), in_cells_.size(), cells.since_written[k]});
     }
-    runs_.back().end = k + 1;
+    in_cells_.push_back(in_cells);
+    elevation_.push_back(cells.elevation[k]);
+    runs_.back().end = in_cells_.size();
   }
 }
 
 cv::Mat_<float> PatchBinner::patch(const Eigen::Matrix2d& distortion) const {
+  if ((distortion - Eigen::Matrix2d::Identity()).norm() > max_correction_ + 1e-9) {
+    throw InputError("patch asked for a distortion beyond the binner's max_correction");
+  }
   const int side = 2 * radius_cells_ + 1;
-  cv::Mat_<double> sum(side, side, 0.0);
-  cv::Mat_<int> count(side, side, 0);
+  std::vector<double> sum(static_cast<size_t>(side) * side, 0.0);
+  std::vector<int> count(static_cast<size_t>(side) * side, 0);
   // A cell written at travel t moves by (distortion - I) (P_odom(t) - position), in the map frame.
   const Eigen::Matrix2f moved = (rotation_ * (distortion - Eigen::Matrix2d::Identity()) / cell_m_).cast<float>();
   for (const Run& run : runs_) {
@@ -254,15 +264,19 @@ cv::Mat_<float> PatchBinner::patch(const Eigen::Matrix2d& distortion) const {
       const Eigen::Vector2f in_cells = in_cells_[k] + shift;
       const int j = cvRound(in_cells.x()) + radius_cells_;
       const int i = cvRound(in_cells.y()) + radius_cells_;
-      if (i < 0 || j < 0 || i >= side || j >= side) continue;
-      sum(i, j) += elevation_[k];
-      count(i, j) += 1;
+      if (static_cast<unsigned>(i) >= static_cast<unsigned>(side) || static_cast<unsigned>(j) >= static_cast<unsigned>(side)) {
+        continue;
+      }
+      const size_t index = static_cast<size_t>(i) * side + j;
+      sum[index] += elevation_[k];
+      count[index] += 1;
     }
   }
   cv::Mat_<float> patch(side, side, kUnknown);
   for (int i = 0; i < side; ++i) {
     for (int j = 0; j < side; ++j) {
-      if (count(i, j) > 0) patch(i, j) = static_cast<float>(sum(i, j) / count(i, j) - centre_elevation_);
+      const size_t index = static_cast<size_t>(i) * side + j;
+      if (count[index] > 0) patch(i, j) = static_cast<float>(sum[index] / count[index] - centre_elevation_);
     }
   }
   return patch;

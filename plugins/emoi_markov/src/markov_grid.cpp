@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Core>
 #include <opencv2/imgproc.hpp>
 
 #include "locd/sdk/errors.hpp"
@@ -114,16 +115,14 @@ double MarkovGrid::normalise() {
   int low_row = window.rows, high_row = -1, low_col = window.cols, high_col = -1;
   for (int r = 0; r < window.rows; ++r) {
     float* b = window.ptr<float>(r);
-    int first = -1, last = -1;
     for (int c = 0; c < window.cols; ++c) {
       const float v = b[c] * scale;
       b[c] = v < kFlushBelow ? 0.0f : v;
-      if (b[c] > 0.0f) {
-        if (first < 0) first = c;
-        last = c;
-      }
     }
-    if (first < 0) continue;
+    int first = 0, last = window.cols - 1;
+    while (first < window.cols && b[first] == 0.0f) ++first;
+    if (first == window.cols) continue;
+    while (b[last] == 0.0f) --last;
     low_row = std::min(low_row, r);
     high_row = r;
     low_col = std::min(low_col, first);
@@ -182,12 +181,14 @@ MotionUpdateReport MarkovGrid::motion_update(const Eigen::Vector2d& displacement
       }
     }
   }
-  if (occupied_.area() > 0) belief_(occupied_).setTo(0.0f);
-  occupied_ = window;
-  if (window.area() > 0) {
-    moved.copyTo(belief_(window));
-    if (!full_support_) belief_(window).setTo(0.0f, support_(window) == 0);
+  if (window == all) {
+    belief_ = moved;
+  } else {
+    if (occupied_.area() > 0) belief_(occupied_).setTo(0.0f);
+    if (window.area() > 0) moved.copyTo(belief_(window));
   }
+  occupied_ = window;
+  if (window.area() > 0 && !full_support_) belief_(window).setTo(0.0f, support_(window) == 0);
   const double mass = normalise();
   report.mass_lost = std::max(0.0, report.mass_before - mass);
   if (!(mass > 1e-30)) {
@@ -264,21 +265,20 @@ BeliefSummary MarkovGrid::summary() const {
   s.mode = geometry_.center_of(max_location.y, max_location.x);
   s.max_probability = max_value;
   double mass = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0, squares = 0;
+  // Per row in float (vectorised), across rows in double: sum p, p dx, p dx^2, p^2.
+  Eigen::ArrayXf dx(occupied_.width);
+  for (int c = 0; c < occupied_.width; ++c) dx[c] = static_cast<float>((occupied_.x + c - max_location.x) * res);
   for (int r = occupied_.y; r < occupied_.y + occupied_.height; ++r) {
-    const float* b = belief_.ptr<float>(r);
+    const Eigen::Map<const Eigen::ArrayXf> p(belief_.ptr<float>(r) + occupied_.x, occupied_.width);
     const double dy = (r - max_location.y) * res;
-    for (int c = occupied_.x; c < occupied_.x + occupied_.width; ++c) {
-      const double p = b[c];
-      if (p <= 0.0) continue;
-      const double dx = (c - max_location.x) * res;
-      mass += p;
-      sx += p * dx;
-      sy += p * dy;
-      sxx += p * dx * dx;
-      syy += p * dy * dy;
-      sxy += p * dx * dy;
-      squares += p * p;
-    }
+    const double row_mass = p.sum(), row_x = (p * dx).sum(), row_xx = (p * dx * dx).sum();
+    mass += row_mass;
+    sx += row_x;
+    sy += dy * row_mass;
+    sxx += row_xx;
+    syy += dy * dy * row_mass;
+    sxy += dy * row_x;
+    squares += p.square().sum();
   }
   if (mass > 0) {
     s.mean = s.mode + Eigen::Vector2d(sx / mass, sy / mass);

@@ -290,6 +290,7 @@ cv::Mat_<float> MaskedEmoiMatcher::to_fine(const cv::Mat_<float>& coarse, int fi
   if (factor_ == 1) return coarse(cv::Rect(0, 0, fine_cols, fine_rows)).clone();
   cv::Mat_<float> fine;
   cv::resize(coarse, fine, cv::Size(coarse.cols * factor_, coarse.rows * factor_), 0, 0, cv::INTER_LINEAR);
+  if (fine.rows == fine_rows && fine.cols == fine_cols) return fine;
   return fine(cv::Rect(0, 0, fine_cols, fine_rows)).clone();
 }
 

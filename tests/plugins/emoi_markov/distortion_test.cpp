@@ -86,6 +86,39 @@ TEST(DistortedLocalMap, PatchRebuiltUnderTheTrueDistortionEqualsTheTruePosePatch
       EXPECT_TRUE(identity(i, j) == as_placed(i, j) || (std::isnan(identity(i, j)) && std::isnan(as_placed(i, j))));
 }
 
+// The binner shared by the hypotheses of one update leaves out the cells no hypothesis up to
+// max_correction can move into the patch: the same patches as binning every cell, every time.
+TEST(DistortedLocalMap, BinnerEqualsBinningEveryCell) {
+  LocalElevationMap::PatchCells cells;
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> position(-30.0f, 30.0f), height(-2.0f, 2.0f);
+  for (int k = 0; k < 20000; ++k) {
+    cells.relative.emplace_back(position(rng), position(rng));
+    // Runs of cells written at the same travel mark share their displacement.
+    const float back = static_cast<float>(k / 500) * 0.8f;
+    cells.since_written.emplace_back(-back, 0.3f * back);
+    cells.elevation.push_back(height(rng));
+  }
+  const auto hypotheses = distortion_hypotheses(0.1, 0.1, 5);
+  double max_correction = 0.0;
+  for (const auto& h : hypotheses) max_correction = std::max(max_correction, (h.transform - Eigen::Matrix2d::Identity()).norm());
+  const PatchBinner binner(cells, 0.4, 0.5, 20, 1.0, max_correction);
+  int observed = 0;
+  for (const auto& h : hypotheses) {
+    const cv::Mat_<float> expected = LocalElevationMap::bin_patch(cells, 0.4, 0.5, 20, 1.0, h.transform);
+    const cv::Mat_<float> got = binner.patch(h.transform);
+    for (int i = 0; i < got.rows; ++i)
+      for (int j = 0; j < got.cols; ++j) {
+        ASSERT_EQ(std::isnan(got(i, j)), std::isnan(expected(i, j))) << i << ", " << j;
+        if (std::isnan(got(i, j))) continue;
+        ASSERT_FLOAT_EQ(got(i, j), expected(i, j));
+        ++observed;
+      }
+  }
+  EXPECT_GT(observed, 25 * 1000);
+  EXPECT_THROW(binner.patch(1.5 * Eigen::Matrix2d::Identity()), locd::InputError);
+}
+
 TEST(DistortedLocalMap, RecordedPositionsInterpolateAndClamp) {
   LocalMapConfig config;
   config.memory_distance_m = 5.0;

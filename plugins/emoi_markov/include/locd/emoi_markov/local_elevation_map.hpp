@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <deque>
+#include <limits>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -118,9 +119,12 @@ class LocalElevationMap {
 // (the same displacement since written) are moved together.
 class PatchBinner {
  public:
+  // max_correction: the largest |distortion - I| (Frobenius) patch() will be asked for; cells no
+  // such distortion can move into the patch are left out once here.
   PatchBinner(const LocalElevationMap::PatchCells& cells, double heading_offset, double cell_m, int radius_cells,
-              double centre_elevation);
-  // The same as LocalElevationMap::bin_patch(cells, ..., distortion).
+              double centre_elevation, double max_correction = std::numeric_limits<double>::infinity());
+  // The same as LocalElevationMap::bin_patch(cells, ..., distortion). Throws InputError for a
+  // distortion beyond max_correction.
   cv::Mat_<float> patch(const Eigen::Matrix2d& distortion = Eigen::Matrix2d::Identity()) const;
 
  private:
@@ -132,6 +136,7 @@ class PatchBinner {
   double cell_m_;
   int radius_cells_;
   double centre_elevation_;
+  double max_correction_;
   std::vector<Eigen::Vector2f> in_cells_;  // map frame, matching cells, as odometry placed them
   std::vector<float> elevation_;
   std::vector<Run> runs_;
