@@ -357,6 +357,7 @@ TEST(ClientLibrary, RequestIsAnsweredOnlyByTheStatusWithItsRequestId) {
   dds::Participant server(kDomainRequests);
   dds::Reader<locd_msg_SessionRequest> requests(server, topics::kSessionRequest, dds::QosProfile::kState, nullptr);
   dds::Writer<locd_msg_SessionStatus> statuses(server, topics::kSessionStatus, dds::QosProfile::kState);
+  dds::Reader<locd_msg_MapSaveRequest> saves(server, topics::kMapSaveRequest, dds::QosProfile::kSensor, nullptr);
 
   Client client({kDomainRequests, "robot_req", 8});
   ASSERT_TRUE(eventually([&] { return requests.matched() > 0 && statuses.matched() > 0; }));
@@ -415,6 +416,16 @@ TEST(ClientLibrary, RequestIsAnsweredOnlyByTheStatusWithItsRequestId) {
   const auto stopped = stopping.get();
   ASSERT_TRUE(stopped.has_value());
   EXPECT_EQ(stopped->state, "stopped");
+
+  // A map save: the robot and a fresh id, no path; answered by the status carrying that id.
+  auto saving = std::async(std::launch::async, [&] { return client.save_map(10s); });
+  const auto save = take_one(saves);
+  EXPECT_EQ(dds::to_string(save.robot_id), "robot_req");
+  EXPECT_NE(save.request_id, stop.request_id);
+  statuses.write(make_status("robot_req", save.request_id, locd_msg_STATE_RUNNING, true, "map saved to /srv/m.pcd"));
+  const auto saved = saving.get();
+  ASSERT_TRUE(saved.has_value());
+  EXPECT_EQ(saved->message, "map saved to /srv/m.pcd");
 
   // Nobody answers: nullopt after the timeout.
   EXPECT_FALSE(client.request_session("feature_ekf", "plugin: feature_ekf\n", 200ms).has_value());

@@ -136,7 +136,8 @@ struct Client::Impl {
         detections(participant, topics::kDetections, dds::QosProfile::kSensor, o.sensor_depth),
         ground_truth(participant, topics::kGroundTruth, dds::QosProfile::kSensor, o.sensor_depth),
         session_request(participant, topics::kSessionRequest, dds::QosProfile::kState),
-        initial_pose(participant, topics::kInitialPose, dds::QosProfile::kState) {
+        initial_pose(participant, topics::kInitialPose, dds::QosProfile::kState),
+        map_save_request(participant, topics::kMapSaveRequest, dds::QosProfile::kSensor) {
     // Readers last: their listeners call into the state above as soon as they exist.
     pose_reader = dds::Reader<locd_msg_PoseEstimate>(participant, topics::kPose, dds::QosProfile::kPose,
                                                       [this](const locd_msg_PoseEstimate& m) { on_pose(m); });
@@ -144,10 +145,14 @@ struct Client::Impl {
                                                          [this](const locd_msg_SessionStatus& m) { on_status(m); });
     server_reader = dds::Reader<locd_msg_ServerInfo>(participant, topics::kServerInfo, dds::QosProfile::kState,
                                                       [this](const locd_msg_ServerInfo& m) { on_server_info(m); });
+    goal_reader = dds::Reader<locd_msg_ExplorationGoal>(
+        participant, topics::kExplorationGoal, dds::QosProfile::kState,
+        [this](const locd_msg_ExplorationGoal& m) { on_exploration_goal(m); });
   }
 
   ~Impl() {
     // Stop the listeners before the state they use goes away.
+    goal_reader = {};
     server_reader = {};
     status_reader = {};
     pose_reader = {};
@@ -185,6 +190,51 @@ struct Client::Impl {
     for (const auto& s : subscribers) {
       if (s.robot_filter.empty() || s.robot_filter == update.robot_id) run_callback(s.callback, update, "on_pose");
     }
+  }
+
+  void on_exploration_goal(const locd_msg_ExplorationGoal& m) {
+    ExplorationGoalUpdate update;
+    update.robot_id = dds::to_string(m.robot_id);
+    update.plugin = dds::to_string(m.plugin);
+    try {
+      update.goal = dds::from_wire(m);
+    } catch (const std::exception& e) {
+      std::cerr << "locd client: dropped a goal on " << topics::kExplorationGoal << " for robot '" << update.robot_id
+                << "': " << e.what() << "\n";
+      return;
+    }
+    std::vector<Subscription<std::function<void(const ExplorationGoalUpdate&)>>> subscribers;
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      subscribers = goal_subscribers;
+    }
+    for (const auto& s : subscribers) {
+      if (s.robot_filter.empty() || s.robot_filter == update.robot_id) {
+        run_callback(s.callback, update, "on_exploration_goal");
+      }
+    }
+  }
+
+  // Registers `id` as pending, runs `send` and waits for the status answering `id`.
+  std::optional<SessionStatus> await_answer(uint64_t id, const std::function<void()>& send,
+                                            std::chrono::milliseconds timeout) {
+    std::unique_lock<std::mutex> lock(mutex);
+    pending_requests.insert(id);
+    lock.unlock();
+    try {
+      send();
+    } catch (...) {
+      lock.lock();
+      pending_requests.erase(id);
+      throw;
+    }
+    lock.lock();
+    const bool answered = changed.wait_for(lock, timeout, [&] { return answers.count(id) > 0; });
+    pending_requests.erase(id);
+    if (!answered) return std::nullopt;
+    SessionStatus answer = std::move(answers[id]);
+    answers.erase(id);
+    return answer;
   }
 
   void on_status(const locd_msg_SessionStatus& m) {
@@ -241,25 +291,13 @@ struct Client::Impl {
     request->action = action;
     request->request_id = fresh_request_id();
     const uint64_t id = request->request_id;
-
-    std::unique_lock<std::mutex> lock(mutex);
-    pending_requests.insert(id);
-    lock.unlock();
-    try {
-      note_written(session_request.handle());
-      session_request.write(*request);
-    } catch (...) {
-      lock.lock();
-      pending_requests.erase(id);
-      throw;
-    }
-    lock.lock();
-    const bool answered = changed.wait_for(lock, timeout, [&] { return answers.count(id) > 0; });
-    pending_requests.erase(id);
-    if (!answered) return std::nullopt;
-    SessionStatus answer = std::move(answers[id]);
-    answers.erase(id);
-    return answer;
+    return await_answer(
+        id,
+        [&] {
+          note_written(session_request.handle());
+          session_request.write(*request);
+        },
+        timeout);
   }
 
   ClientOptions options;
@@ -273,6 +311,7 @@ struct Client::Impl {
   dds::Writer<locd_msg_PoseEstimate> ground_truth;
   dds::Writer<locd_msg_SessionRequest> session_request;
   dds::Writer<locd_msg_InitialPose> initial_pose;
+  dds::Writer<locd_msg_MapSaveRequest> map_save_request;
 
   mutable std::mutex mutex;
   std::condition_variable changed;
@@ -283,10 +322,12 @@ struct Client::Impl {
   std::map<uint64_t, SessionStatus> answers;  // by request_id, for pending requests only
   std::vector<Subscription<std::function<void(const PoseUpdate&)>>> pose_subscribers;
   std::vector<Subscription<std::function<void(const SessionStatus&)>>> status_subscribers;
+  std::vector<Subscription<std::function<void(const ExplorationGoalUpdate&)>>> goal_subscribers;
 
   dds::Reader<locd_msg_PoseEstimate> pose_reader;
   dds::Reader<locd_msg_SessionStatus> status_reader;
   dds::Reader<locd_msg_ServerInfo> server_reader;
+  dds::Reader<locd_msg_ExplorationGoal> goal_reader;
 };
 
 Client::Client(const ClientOptions& options) : impl_(std::make_unique<Impl>(options)) {}
@@ -389,6 +430,34 @@ void Client::on_pose(std::function<void(const PoseUpdate&)> callback, const std:
 void Client::on_status(std::function<void(const SessionStatus&)> callback, const std::string& robot_filter) {
   std::lock_guard<std::mutex> lock(impl_->mutex);
   impl_->status_subscribers.push_back({std::move(callback), robot_filter});
+}
+
+void Client::on_exploration_goal(std::function<void(const ExplorationGoalUpdate&)> callback,
+                                 const std::string& robot_filter) {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->goal_subscribers.push_back({std::move(callback), robot_filter});
+}
+
+std::optional<SessionStatus> Client::save_map(std::chrono::milliseconds timeout) {
+  impl_->require_robot("save_map");
+  locd_msg_MapSaveRequest request;
+  std::memset(&request, 0, sizeof request);
+  dds::copy_string(request.robot_id, impl_->options.robot_id);
+  request.request_id = fresh_request_id();
+  // The request topic is volatile: written before a server's reader matched, it would be lost.
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (impl_->map_save_request.matched() == 0) {
+    if (std::chrono::steady_clock::now() >= deadline) return std::nullopt;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  timeout = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+  return impl_->await_answer(
+      request.request_id,
+      [&] {
+        impl_->note_written(impl_->map_save_request.handle());
+        impl_->map_save_request.write(request);
+      },
+      timeout);
 }
 
 std::vector<SessionStatus> Client::statuses() const {

@@ -2,8 +2,9 @@
 // icp_explorer session with the toy two-room world's parameters, stops and scans three times
 // with odometry in between, and gets a registered pose per scan near the truth, the registered
 // map (transient-local) and an exploration goal; an all-NaN cloud is rejected with a clear error
-// on its status, counted, and the session carries on; a map save request (no path in it) writes
-// the map into the server's output_directory and names the file on the status.
+// on its status, counted, and the session carries on; through the client library, an operator
+// gets the same goals by callback and asks for the map to be saved (no path in the request): it
+// is written into the server's output_directory and named on the answering status.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -12,6 +13,7 @@
 #include <random>
 #include <thread>
 
+#include "locd/client/client.hpp"
 #include "robot_side.hpp"
 #include "test_server.hpp"
 #include "toy_world.hpp"
@@ -41,8 +43,6 @@ TEST(IcpExplorerOverDds, RegistersScansPublishesMapAndGoalAndRejectsABadCloud) {
   locd::dds::Writer<locd_msg_InitialPose> initial_pose(participant, locd::topics::kInitialPose, QosProfile::kState);
   locd::dds::Writer<locd_msg_Odometry> odometry(participant, locd::topics::kOdometry, QosProfile::kSensor, 16);
   locd::dds::Writer<locd_msg_PointCloud> clouds(participant, locd::topics::kCloud, QosProfile::kSensor, 4);
-  locd::dds::Writer<locd_msg_MapSaveRequest> save_requests(participant, locd::topics::kMapSaveRequest,
-                                                           QosProfile::kSensor);
   std::vector<locd::ExplorationGoal> goals_seen;
   std::string goal_plugin;
   size_t map_points = 0;
@@ -60,7 +60,17 @@ TEST(IcpExplorerOverDds, RegistersScansPublishesMapAndGoalAndRejectsABadCloud) {
         map_points = m.xyz._length / 3;
         robot.notify();
       });
-  ASSERT_TRUE(robot.wait_matched(initial_pose, odometry, clouds, save_requests, goals, maps));
+  // An operator's program on the client library: the same goals by callback, and map saving.
+  std::vector<locd::ExplorationGoalUpdate> client_goals;
+  locd::Client operator_client({.domain_id = kDomain, .robot_id = kRobot});
+  operator_client.on_exploration_goal(
+      [&](const locd::ExplorationGoalUpdate& g) {
+        std::lock_guard<std::mutex> lock(robot.mutex());
+        client_goals.push_back(g);
+        robot.notify();
+      },
+      kRobot);
+  ASSERT_TRUE(robot.wait_matched(initial_pose, odometry, clouds, goals, maps));
   ASSERT_TRUE(robot.start("icp_explorer", kPluginConfig));
   const std::vector<locd::Pose2> stops = {{3.0, 1.2, 0.0}, {3.8, 1.5, 0.2}, {4.6, 2.0, 0.5}};
   locd::PoseEstimate start;
@@ -98,8 +108,11 @@ TEST(IcpExplorerOverDds, RegistersScansPublishesMapAndGoalAndRejectsABadCloud) {
   }
 
   auto lock = robot.lock();
-  ASSERT_TRUE(robot.wait(lock, [&] { return goals_seen.size() >= 3 && map_points > 0; },
-                         "3 exploration goals and a map"));
+  ASSERT_TRUE(robot.wait(lock, [&] { return goals_seen.size() >= 3 && client_goals.size() >= 3 && map_points > 0; },
+                         "3 exploration goals (raw reader and client) and a map"));
+  EXPECT_EQ(client_goals.back().plugin, "icp_explorer");
+  EXPECT_EQ(client_goals.back().goal.header.stamp_ns, goals_seen.back().header.stamp_ns);
+  EXPECT_TRUE(client_goals.back().goal.pose.isApprox(goals_seen.back().pose));
   size_t compared = 0;
   for (const locd::PoseEstimate& p : robot.poses()) {
     const auto t = truth.find(p.header.stamp_ns);
@@ -118,19 +131,13 @@ TEST(IcpExplorerOverDds, RegistersScansPublishesMapAndGoalAndRejectsABadCloud) {
   EXPECT_GT(map_points, 500u);
   lock.unlock();
 
-  // A map save request (no path in it): written into the server's output directory, named on
-  // the status.
-  locd_msg_MapSaveRequest save;
-  std::memset(&save, 0, sizeof save);
-  locd::dds::copy_string(save.robot_id, kRobot);
-  save.request_id = 7;
-  save_requests.write(save);
-  lock.lock();
-  ASSERT_TRUE(robot.wait(lock, [&] { return robot.status().request_id == 7; }, "the answer to map save request 7"));
-  EXPECT_TRUE(robot.status().request_ok) << robot.status().message;
-  EXPECT_EQ(robot.status().message.rfind("map saved to " + fs::canonical(dir / "maps").string() + "/scanner_bot_map_3scans_", 0),
-            0u)
-      << robot.status().message;
+  // A map save request through the client library (no path in it): written into the server's
+  // output directory, the file named on the status that answers it.
+  const auto saved = operator_client.save_map(60s);
+  ASSERT_TRUE(saved) << "no answer to the map save request";
+  EXPECT_TRUE(saved->request_ok) << saved->message;
+  EXPECT_EQ(saved->message.rfind("map saved to " + fs::canonical(dir / "maps").string() + "/scanner_bot_map_3scans_", 0), 0u)
+      << saved->message;
   size_t files = 0;
   for (const auto& entry : fs::directory_iterator(dir / "maps")) files += entry.path().extension() == ".pcd";
   EXPECT_EQ(files, 1u);

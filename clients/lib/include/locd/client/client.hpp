@@ -43,6 +43,13 @@ struct PoseUpdate {
   int64_t received_wall_ns = 0;  // CLOCK_REALTIME when the client received it
 };
 
+// The next best scan pose an exploring plugin (icp_explorer) suggests, or done.
+struct ExplorationGoalUpdate {
+  std::string robot_id;
+  std::string plugin;
+  ExplorationGoal goal;  // goal.done: nothing left worth a scan
+};
+
 struct PluginInfo {
   std::string name, version, description;
   std::vector<std::string> consumes;
@@ -87,6 +94,10 @@ class Client {
   std::optional<SessionStatus> request_session(const std::string& plugin, const std::string& config_yaml,
                                                std::chrono::milliseconds timeout);
   std::optional<SessionStatus> stop_session(std::chrono::milliseconds timeout);
+  // Asks the server to save this robot's map (a plugin that builds one, e.g. icp_explorer) into
+  // its own output directory; no path travels. Returns the answering status (message names the
+  // file written, or why not), nullopt on timeout.
+  std::optional<SessionStatus> save_map(std::chrono::milliseconds timeout);
   void set_initial_pose(const PoseEstimate& pose);
 
   // Waits until a locd server is discovered (its ServerInfo is received). False on timeout.
@@ -101,6 +112,8 @@ class Client {
   // robot_filter empty = every robot.
   void on_pose(std::function<void(const PoseUpdate&)> callback, const std::string& robot_filter = "");
   void on_status(std::function<void(const SessionStatus&)> callback, const std::string& robot_filter = "");
+  void on_exploration_goal(std::function<void(const ExplorationGoalUpdate&)> callback,
+                           const std::string& robot_filter = "");
 
   // Latest status per robot seen so far (transient-local: includes robots started earlier).
   std::vector<SessionStatus> statuses() const;
