@@ -1,5 +1,6 @@
-// locsim live as people run it: the real locsim binary against the real locd (feature_ekf) over
-// loopback DDS, both as child processes; and locsim live with no server.
+// locsim live as people run it: the real locsim binary against the real locd over loopback DDS,
+// both as child processes (feature_ekf on the corridor; icp_explorer's exploration mission, which
+// drives the robot to the goals the server publishes); and locsim live with no server.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -18,6 +19,7 @@ namespace {
 
 constexpr uint32_t kDomainLive = 30;
 constexpr uint32_t kDomainNoServer = 31;
+constexpr uint32_t kDomainExploration = 32;
 
 std::string binary(const std::string& name) { return locd::sim::test::binary_dir() + "/bin/" + name; }
 
@@ -61,6 +63,38 @@ TEST(LocsimLive, CorridorAgainstLocdIsScoredWithLatencies) {
   EXPECT_GE(json_number(output, "latency_ms_p99"), json_number(output, "latency_ms_p50")) << output;
   EXPECT_NE(output.find("\"converged\": true"), std::string::npos) << output;
   EXPECT_TRUE(fs::exists(plot));
+  server.signal(SIGINT);
+  EXPECT_EQ(server.wait(20s), 0) << server.output();
+  fs::remove_all(dir);
+}
+
+TEST(LocsimLive, ExplorationMissionDrivesToTheServersGoals) {
+  const fs::path dir = scratch("locsim_live_explore_");
+  const std::string source = locd::sim::test::source_dir();
+  const fs::path server_config = dir / "locd.yaml";
+  std::ofstream(server_config) << "domain_id: " << kDomainExploration << "\nplugin_directories: ["
+                               << locd::sim::test::plugin_dir() << "]\n";
+  locd::test::ChildProcess server(binary("locd"), {"--config", server_config.string()}, (dir / "locd.log").string());
+  // The shipped mission, three stops, a coarser scanner to keep the test short.
+  const fs::path scenario = dir / "four_rooms_short.yaml";
+  std::ofstream(scenario) << "kind: icp_explorer_exploration\nname: four_rooms_short\nseed: 1\n"
+                          << "world: " << source << "/config/maps/four_rooms_3d.yaml\n"
+                          << "robot: {id: live_explorer, start: [3.0, 3.0, 0.0], radius: 0.3}\n"
+                          << "sensors:\n  scanner3d: {azimuth_steps: 360, elevation_steps: 70, sensor_height: 0.8}\n"
+                          << "  odometry: {max_translation_error: 0.5, max_rotation_error_deg: 10}\n"
+                          << "mission: {max_scans: 3, target_coverage: 0.95}\n"
+                          << "localizer: {config_file: " << source << "/config/plugins/icp_explorer.yaml}\n";
+  locd::test::ChildProcess sim(binary("locsim"),
+                               {"live", scenario.string(), "--domain", std::to_string(kDomainExploration), "--json",
+                                "--server-timeout", "60"},
+                               (dir / "locsim.log").string());
+  const int code = sim.wait(150s);
+  const std::string output = sim.output();
+  ASSERT_EQ(code, 0) << output << "\nserver log:\n" << server.output();
+  EXPECT_EQ(json_number(output, "scans"), 3) << output;  // each stop after the first is a goal of the server
+  EXPECT_GT(json_number(output, "path_length_m"), 1.0) << output;
+  EXPECT_GT(json_number(output, "coverage"), 0.3) << output;
+  EXPECT_LT(json_number(output, "max_error_m"), 0.05) << output;
   server.signal(SIGINT);
   EXPECT_EQ(server.wait(20s), 0) << server.output();
   fs::remove_all(dir);

@@ -11,6 +11,7 @@
 
 #include "live.hpp"
 #include "live_emoi_markov.hpp"
+#include "live_exploration.hpp"
 #include "locd/sim/offline_runner.hpp"
 #include "locd/sim/report.hpp"
 #include "locd/sim/scenario.hpp"
@@ -158,7 +159,7 @@ int main(int argc, char** argv) {
       return locd::sim::emoi::locsim_run_four_positions(scenario_file, plugin_directories, seed, json, std::cout);
     }
     if (locd::sim::is_exploration_scenario(scenario_file)) {  // icp_explorer's exploration mission
-      if (mode == "live") throw UsageError("the icp_explorer exploration scenario runs offline only: locsim run");
+      if (mode == "live") return locd::sim::run_exploration_live(scenario_file, live, seed, json);
       if (plugin_directories.empty()) plugin_directories.push_back(default_plugin_directory());
       return locd::sim::locsim_run_exploration(scenario_file, plugin_directories, seed, json, std::cout);
     }
