@@ -5,9 +5,11 @@
 #include <cstring>
 #include <limits>
 
+#include "error_of.hpp"
 #include "locd/dds/convert.hpp"
 
 using namespace locd;
+using locd::test::error_of;
 
 namespace {
 
@@ -30,16 +32,6 @@ locd_msg_LaserScan scan_of(std::vector<float>& ranges) {
   return m;
 }
 
-template <typename F>
-std::string input_error(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
-
 }  // namespace
 
 TEST(Convert, OversizedScanRejectedBeforeReadingIt) {
@@ -47,7 +39,7 @@ TEST(Convert, OversizedScanRejectedBeforeReadingIt) {
   limits.max_scan_beams = 100;
   auto m = zeroed<locd_msg_LaserScan>();
   m.ranges._length = 101;  // buffer deliberately null: reading it would crash
-  const std::string msg = input_error([&] { dds::from_wire(m, limits); });
+  const std::string msg = error_of<InputError>([&] { dds::from_wire(m, limits); });
   EXPECT_NE(msg.find("max_scan_beams"), std::string::npos) << msg;
   EXPECT_NE(msg.find("101"), std::string::npos) << msg;
 }
@@ -69,14 +61,14 @@ TEST(Convert, ScanValuesSurvive) {
 TEST(Convert, EmptyAndAllNanScansRejected) {
   std::vector<float> none;
   auto empty = scan_of(none);
-  EXPECT_NE(input_error([&] { dds::from_wire(empty, Limits{}); }).find("empty"), std::string::npos);
+  EXPECT_NE(error_of<InputError>([&] { dds::from_wire(empty, Limits{}); }).find("empty"), std::string::npos);
   std::vector<float> nan(5, std::numeric_limits<float>::quiet_NaN());
   auto all_nan = scan_of(nan);
-  EXPECT_NE(input_error([&] { dds::from_wire(all_nan, Limits{}); }).find("no beam"), std::string::npos);
+  EXPECT_NE(error_of<InputError>([&] { dds::from_wire(all_nan, Limits{}); }).find("no beam"), std::string::npos);
   std::vector<float> ok{1.0f};
   auto bad_pose = scan_of(ok);
   bad_pose.sensor_pose.position.x = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_NE(input_error([&] { dds::from_wire(bad_pose, Limits{}); }).find("sensor_pose"), std::string::npos);
+  EXPECT_NE(error_of<InputError>([&] { dds::from_wire(bad_pose, Limits{}); }).find("sensor_pose"), std::string::npos);
 }
 
 TEST(Convert, CloudLimitsAndNanPoints) {
@@ -84,7 +76,7 @@ TEST(Convert, CloudLimitsAndNanPoints) {
   limits.max_cloud_points = 2;
   auto big = zeroed<locd_msg_PointCloud>();
   big.xyz._length = 9;  // 3 points, null buffer
-  EXPECT_NE(input_error([&] { dds::from_wire(big, limits); }).find("max_cloud_points"), std::string::npos);
+  EXPECT_NE(error_of<InputError>([&] { dds::from_wire(big, limits); }).find("max_cloud_points"), std::string::npos);
   std::vector<float> xyz{1, 2, 3, NAN, 0, 0};
   auto m = zeroed<locd_msg_PointCloud>();
   m.sensor_pose.orientation.w = 1;
@@ -110,17 +102,17 @@ TEST(Convert, ImageEncodingAndSize) {
   EXPECT_EQ(img.channels, 3);
   EXPECT_EQ(img.data.size(), 24u);
   std::strcpy(m.encoding, "rgb16");
-  EXPECT_NE(input_error([&] { dds::from_wire(m, limits); }).find("allowed: mono8, bgr8"), std::string::npos);
+  EXPECT_NE(error_of<InputError>([&] { dds::from_wire(m, limits); }).find("allowed: mono8, bgr8"), std::string::npos);
   std::strcpy(m.encoding, "mono8");
   m.width = 20;
   m.height = 20;  // 400 pixels > 100
-  EXPECT_NE(input_error([&] { dds::from_wire(m, limits); }).find("max_image_pixels"), std::string::npos);
+  EXPECT_NE(error_of<InputError>([&] { dds::from_wire(m, limits); }).find("max_image_pixels"), std::string::npos);
 }
 
 TEST(Convert, NanAttitudeRejected) {
   auto m = zeroed<locd_msg_Imu>();
   m.orientation.w = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_NE(input_error([&] { dds::from_wire(m); }).find("attitude"), std::string::npos);
+  EXPECT_NE(error_of<InputError>([&] { dds::from_wire(m); }).find("attitude"), std::string::npos);
 }
 
 TEST(Convert, PoseRoundTrip) {
