@@ -83,7 +83,7 @@ bool Session::push(Measurement measurement) {
   const size_t kind_index = measurement.index();
   const int64_t stamp = header_of(measurement).stamp_ns;
   std::string error;
-  bool dropped = false;
+  const char* dropped = nullptr;  // topic of the message dropped from a full queue
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (stopped_) return false;
@@ -107,9 +107,10 @@ bool Session::push(Measurement measurement) {
           const MeasurementKind kind = kind_of(m);
           return kind != MeasurementKind::kOdometry && kind != MeasurementKind::kImu;
         });
-        queue_.erase(victim != queue_.end() ? victim : queue_.begin());
+        if (victim == queue_.end()) victim = queue_.begin();
+        dropped = topic_of(kind_of(*victim));
+        queue_.erase(victim);
         ++counters_.dropped;
-        dropped = true;
       }
       if (localizer_) schedule_drain_locked();
     }
@@ -118,7 +119,7 @@ bool Session::push(Measurement measurement) {
     log_rejection(error);
     publish_status_later();
   } else if (dropped) {
-    log(LogLevel::kDebug, "queue full (" + std::to_string(queue_depth_) + "): dropped the oldest sensor frame");
+    log(LogLevel::kDebug, "queue full (" + std::to_string(queue_depth_) + "): dropped the oldest message on " + dropped);
   }
   return true;
 }
