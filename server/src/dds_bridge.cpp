@@ -145,6 +145,7 @@ void DdsBridge::publish_status(const SessionStatusReport& s) {
   wire->rejected = s.counters.rejected;
   wire->updates = s.counters.updates;
   wire->last_update_ms = s.counters.last_update_ms;
+  wire->initial_pose_stamp_ns = s.initial_pose_stamp_ns;
   status_.write(*wire);
 }
 

@@ -148,17 +148,29 @@ void Session::set_pose(const PoseEstimate& pose) {
   auto self = shared_from_this();
   post_control([this, self, pose] {
     Localizer* localizer = nullptr;
+    // The initial pose counts as received and, once the plugin holds it, used; the status
+    // published here, naming its stamp, is the robot's acknowledgement that later messages meet
+    // the new pose (DDS orders samples per topic only).
+    auto hold = [&] {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++counters_.used;
+      initial_pose_stamp_ns_ = pose.header.stamp_ns;
+    };
     {
       std::lock_guard<std::mutex> lock(mutex_);
       last_pose_ = pose;
       localizer = localizer_.get();
+      ++counters_.received;
     }
     if (!localizer) {
+      hold();  // handed to the plugin when it is installed
       log(LogLevel::kInfo, "initial pose kept for the plugin still starting");
+      publish_status();
       return;
     }
     try {
       localizer->set_pose(pose);
+      hold();
       log(LogLevel::kInfo, "initial pose set: x " + std::to_string(pose.pose.translation().x()) + ", y " +
                                std::to_string(pose.pose.translation().y()));
     } catch (const std::exception& e) {
@@ -168,8 +180,8 @@ void Session::set_pose(const PoseEstimate& pose) {
         last_error_ = std::string("initial pose rejected by plugin '") + plugin_ + "': " + e.what();
       }
       log(LogLevel::kWarning, std::string("initial pose rejected: ") + e.what());
-      publish_status();
     }
+    publish_status();
   });
 }
 
@@ -325,6 +337,7 @@ SessionStatusReport Session::status() const {
   s.message = message_;
   s.last_error = last_error_;
   s.counters = counters_;
+  s.initial_pose_stamp_ns = initial_pose_stamp_ns_;
   return s;
 }
 

@@ -297,7 +297,12 @@ TEST(Locctl, WatchPrintsThePosesOfARobotStreamingScans) {
   const LocctlRun initial = locctl(dir, {"--domain", domain, "initial-pose", "robot45", "3.1", "0.95", "0.02", "--std-xy",
                                    "0.2", "--std-yaw", "0.05"});
   EXPECT_EQ(initial.exit_code, 0) << initial.output;
-  EXPECT_TRUE(contains(initial.output, "robot45: initial pose x=3.1 y=0.95 yaw=0.02 rad delivered")) << initial.output;
+  EXPECT_TRUE(contains(initial.output, "robot45: initial pose x=3.1 y=0.95 yaw=0.02 rad held by plugin feature_ekf"))
+      << initial.output;
+  // Nobody runs robot46: the pose is never taken, and locctl says so.
+  const LocctlRun orphan = locctl(dir, {"--domain", domain, "--timeout", "1", "initial-pose", "robot46", "1", "2", "0"});
+  EXPECT_EQ(orphan.exit_code, 1) << orphan.output;
+  EXPECT_TRUE(contains(orphan.output, "the initial pose for robot 'robot46' was not taken within 1")) << orphan.output;
 
   test::ChildProcess watch_json(locctl_path(),
                                 {"--domain", domain, "--timeout", "30", "--json", "watch", "robot45", "--count", "5"},

@@ -109,6 +109,14 @@ class RobotSide {
     return wait(lock, [&] { return status_.rejected >= count; }, std::to_string(count) + " rejected message(s)");
   }
 
+  // Until the status says the plugin holds the initial pose stamped `stamp_ns` (DDS orders
+  // samples per topic only: a test waits for this before sending what must meet the pose).
+  ::testing::AssertionResult wait_initial_pose(int64_t stamp_ns) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    return wait(lock, [&] { return status_.initial_pose_stamp_ns == stamp_ns; },
+                "the initial pose stamped " + std::to_string(stamp_ns));
+  }
+
   // The lock over everything recorded; a test's own reader callbacks take it too, then notify().
   std::unique_lock<std::mutex> lock() { return std::unique_lock<std::mutex>(mutex_); }
   std::mutex& mutex() { return mutex_; }

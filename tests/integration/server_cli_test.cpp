@@ -259,7 +259,12 @@ TEST(ServerCli, BootSessionRunsWithoutAClientAndShutsDownCleanlyOnSigint) {
   EXPECT_EQ(locd::dds::to_string(robot.pose_at(100)->plugin), "fixture_odometry");
 
   // The initial pose topic re-anchors it: odometry moves 1 m from there.
+  // DDS orders samples per topic only: the status naming the pose's stamp says the plugin holds
+  // it before the next odometry is sent. It counts as received and used (boot pose, odometry, pose).
   robot.send_initial_pose("booted", 7.0, -2.0);
+  ASSERT_TRUE(robot.wait([&] { return robot.status_of("booted", 0)->initial_pose_stamp_ns == 1; })) << locd.output();
+  EXPECT_EQ(robot.status_of("booted", 0)->received, 3u);
+  EXPECT_EQ(robot.status_of("booted", 0)->used, 3u);
   robot.send_odometry("booted", 200, 1.5);
   robot.send_odometry("booted", 300, 2.5);
   ASSERT_TRUE(robot.wait([&] { return robot.pose_at(300) != nullptr; })) << locd.output();
@@ -284,6 +289,7 @@ TEST(ServerCli, SwitchOverDdsHandsThePoseToTheNewPlugin) {
   robot.request("switcher", 1, "plugin: fixture_odometry\nparams: {position_stddev: 0.1}\n");
   ASSERT_TRUE(robot.wait([&] { return robot.status_of("switcher", 1) != nullptr; })) << locd.output();
   robot.send_initial_pose("switcher", 5.0, 0.0);
+  ASSERT_TRUE(robot.wait([&] { return robot.status_of("switcher", 1)->initial_pose_stamp_ns == 1; })) << locd.output();
   robot.send_odometry("switcher", 100, 0.0);
   ASSERT_TRUE(robot.wait([&] { return robot.pose_at(100) != nullptr; })) << locd.output();
   EXPECT_NEAR(robot.pose_at(100)->pose.position.x, 5.0, 1e-9);

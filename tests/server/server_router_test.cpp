@@ -148,8 +148,8 @@ TEST_F(ServerRouterTest, SwitchAtRunTimeHandsOverThePoseAndAFailedSwitchKeepsThe
   EXPECT_NEAR(last->pose.translation().x(), 12.0, 1e-9);
   EXPECT_NEAR(last->covariance(0, 0), 0.25, 1e-12);  // the new instance's stddev 0.5
   const auto counters = server_->find("r3")->status().counters;
-  EXPECT_EQ(counters.received, 3u);
-  EXPECT_EQ(counters.used, 3u);
+  EXPECT_EQ(counters.received, 4u);  // the initial pose and three odometry messages
+  EXPECT_EQ(counters.used, 4u);
   EXPECT_EQ(counters.updates, 3u);
 }
 

@@ -105,6 +105,7 @@ SessionStatus status_from_wire(const locd_msg_SessionStatus& m) {
   s.rejected = m.rejected;
   s.updates = m.updates;
   s.last_update_ms = m.last_update_ms;
+  s.initial_pose_stamp_ns = m.initial_pose_stamp_ns;
   s.stamp_ns = m.header.stamp_ns;
   return s;
 }
@@ -392,6 +393,30 @@ void Client::set_initial_pose(const PoseEstimate& pose) {
   impl_->require_robot("set_initial_pose");
   impl_->note_written(impl_->initial_pose.handle());
   dds::write(impl_->initial_pose, impl_->options.robot_id, pose);
+}
+
+std::optional<SessionStatus> Client::set_initial_pose(const PoseEstimate& pose, std::chrono::milliseconds timeout) {
+  impl_->require_robot("set_initial_pose");
+  if (pose.header.stamp_ns == 0) {
+    throw std::invalid_argument("set_initial_pose: the pose is stamped 0; stamp it (e.g. with the robot's clock) so "
+                                "its acknowledgement can be told from an earlier one");
+  }
+  const std::string& robot = impl_->options.robot_id;
+  std::unique_lock<std::mutex> lock(impl_->mutex);
+  const auto before = impl_->latest_status.find(robot);
+  const uint64_t rejected_before = before == impl_->latest_status.end() ? 0 : before->second.rejected;
+  lock.unlock();
+  set_initial_pose(pose);
+  lock.lock();
+  const auto answered = [&] {
+    const auto it = impl_->latest_status.find(robot);
+    if (it == impl_->latest_status.end()) return false;
+    const SessionStatus& s = it->second;
+    return s.initial_pose_stamp_ns == pose.header.stamp_ns ||
+           (s.rejected > rejected_before && s.last_error.rfind("initial pose rejected", 0) == 0);
+  };
+  if (!impl_->changed.wait_for(lock, timeout, answered)) return std::nullopt;
+  return impl_->latest_status.at(robot);
 }
 
 bool Client::wait_for_server(std::chrono::milliseconds timeout) {

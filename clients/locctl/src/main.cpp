@@ -161,17 +161,18 @@ int command_initial_pose(const CommandLine& cl) {
   pose.covariance = Matrix6d::Zero();
   pose.covariance(0, 0) = pose.covariance(1, 1) = cl.std_xy * cl.std_xy;
   pose.covariance(5, 5) = cl.std_yaw * cl.std_yaw;
-  client.set_initial_pose(pose);
-  if (!client.wait_for_delivery(to_ms(timeout_s))) {
-    throw Failure("the initial pose for robot '" + robot + "' was not acknowledged by the server within " +
-                  seconds_text(timeout_s));
+  const auto held = client.set_initial_pose(pose, to_ms(timeout_s));
+  if (!held) {
+    throw Failure("the initial pose for robot '" + robot + "' was not taken within " + seconds_text(timeout_s) +
+                  " (is a session running for it? locctl status " + robot + ")");
   }
+  if (held->initial_pose_stamp_ns != pose.header.stamp_ns) throw Failure(held->last_error);
   if (cl.json) {
     std::cout << JsonObject().add("command", "initial-pose").add("ok", true).add("robot", robot).add("x", x).add("y", y)
                      .add("yaw", yaw).add("std_xy", cl.std_xy).add("std_yaw", cl.std_yaw).str()
               << "\n";
   } else {
-    std::cout << robot << ": initial pose x=" << x << " y=" << y << " yaw=" << yaw << " rad delivered\n";
+    std::cout << robot << ": initial pose x=" << x << " y=" << y << " yaw=" << yaw << " rad held by plugin " << held->plugin << "\n";
   }
   return 0;
 }

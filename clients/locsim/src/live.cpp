@@ -77,8 +77,12 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
   const int64_t clock_origin_ns = wall_ns();
   PoseEstimate initial = simulation.initial_pose();
   initial.header.stamp_ns = clock_origin_ns;
-  client.set_initial_pose(initial);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const auto held = client.set_initial_pose(initial, timeout);
+  if (!held || held->initial_pose_stamp_ns != initial.header.stamp_ns) {
+    std::cerr << "locsim: the server did not take the initial pose of robot '" << scenario.robot.id << "' within "
+              << options.server_timeout_s << " s" << (held ? ": " + held->last_error : std::string()) << "\n";
+    return 2;
+  }
 
   std::map<int64_t, Published> published;  // by stamp
   TrajectoryEvaluator evaluator(scenario.convergence_threshold_m);

@@ -26,9 +26,10 @@ RemoteLocalizer::RemoteLocalizer(Client& client, std::chrono::milliseconds timeo
 }
 
 void RemoteLocalizer::set_pose(const PoseEstimate& pose) {
-  client_.set_initial_pose(pose);
-  if (!client_.wait_for_delivery(timeout_)) {
-    throw std::runtime_error("the server did not acknowledge the initial pose of robot '" + client_.robot_id() + "'");
+  const auto held = client_.set_initial_pose(pose, timeout_);
+  if (!held || held->initial_pose_stamp_ns != pose.header.stamp_ns) {
+    throw std::runtime_error("the server did not take the initial pose of robot '" + client_.robot_id() + "'" +
+                             (held ? ": " + held->last_error : std::string()));
   }
 }
 

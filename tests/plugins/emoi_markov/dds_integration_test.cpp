@@ -25,7 +25,6 @@ constexpr int kDomain = 85;
 TEST(EmoiMarkovOverDds, LocalizesFromScansAndRejectsABadScan) {
   // Maps come from the server folder's own maps/ (a relative map directory resolves there).
   locd::test::TestServer server("emoi_markov_dds", kDomain, {"maps", "", 2000});
-  locd::test::ChildProcess& locd = server.process();
   const fs::path& dir = server.dir();
   sim::FourPositionsScenario scenario;
   scenario.world.size_x_m = scenario.world.size_y_m = 60.0;

@@ -77,6 +77,7 @@ TEST(IcpExplorerOverDds, RegistersScansPublishesMapAndGoalAndRejectsABadCloud) {
   start.header.stamp_ns = 500'000'000;
   start.pose = stops[0].to_isometry();
   locd::dds::write(initial_pose, kRobot, start);
+  ASSERT_TRUE(robot.wait_initial_pose(start.header.stamp_ns));  // held before the first scan
 
   const locd::sim::IndoorWorld world = locd::test::two_rooms();
   const locd::sim::Scanner3D scanner(locd::test::coarse_scanner());

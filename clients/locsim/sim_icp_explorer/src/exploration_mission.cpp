@@ -77,6 +77,7 @@ ExplorationMissionResult run_exploration_mission(const ExplorationScenario& scen
   result.reference_voxels = coverage.reference_voxels();
   Pose2 truth = scenario.start;
   PoseEstimate start;
+  start.header = {1, "map"};  // before the first scan, stamped so a remote localizer can acknowledge it
   start.pose = truth.to_isometry();
   localizer.set_pose(start);
   for (int k = 0; k < scenario.max_scans; ++k) {

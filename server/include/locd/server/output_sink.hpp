@@ -32,6 +32,7 @@ struct SessionStatusReport {
   std::string message;     // outcome of the last request
   std::string last_error;  // last rejected input or failure
   SessionCounters counters;
+  int64_t initial_pose_stamp_ns = 0;  // stamp of the last initial pose the plugin holds (0 = none)
 };
 
 struct ServerInfoReport {

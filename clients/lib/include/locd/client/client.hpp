@@ -32,6 +32,7 @@ struct SessionStatus {
   std::string last_error;  // last rejected input or failure
   uint64_t received = 0, used = 0, dropped = 0, rejected = 0, updates = 0;
   double last_update_ms = 0.0;
+  int64_t initial_pose_stamp_ns = 0;  // stamp of the last initial pose the plugin holds (0 = none)
   int64_t stamp_ns = 0;
 };
 
@@ -99,6 +100,12 @@ class Client {
   // file written, or why not), nullopt on timeout.
   std::optional<SessionStatus> save_map(std::chrono::milliseconds timeout);
   void set_initial_pose(const PoseEstimate& pose);
+  // Sends the initial pose and waits until the server's status says the plugin holds it
+  // (initial_pose_stamp_ns == pose.header.stamp_ns) or refused it (rejected grows, last_error
+  // begins "initial pose rejected"). Sensor messages sent after this meet the new pose; without
+  // the wait they may not, as DDS orders samples per topic only. Returns that status, nullopt on
+  // timeout. Throws std::invalid_argument for a pose stamped 0 (give each pose a fresh stamp).
+  std::optional<SessionStatus> set_initial_pose(const PoseEstimate& pose, std::chrono::milliseconds timeout);
 
   // Waits until a locd server is discovered (its ServerInfo is received). False on timeout.
   bool wait_for_server(std::chrono::milliseconds timeout);
