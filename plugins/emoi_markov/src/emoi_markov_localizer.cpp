@@ -51,7 +51,7 @@ EmoiMarkovConfig parse_config(const Params& params) {
                       "base_height_m", "local_map_size_m", "local_map_memory_m", "local_map_refresh_m", "min_point_range_m", "cache",
                       "belief_output_max_cells", "sensor_model", "match_resolution_m", "ground_offset_stddev_m",
                       "odometry_direction_error_rad", "distortion_nodes", "distortion_max_cells",
-                      "distortion_support_mass"});
+                      "distortion_support_mass", "shape_sigma_m"});
   EmoiMarkovConfig config;
   config.map = params.required_text("map");
   config.radii_m = params.numbers("radii_m", config.radii_m, 0, Range::open(0.0, 1000.0));
@@ -68,6 +68,7 @@ EmoiMarkovConfig parse_config(const Params& params) {
   }
   config.sensor.ground_offset_stddev_m =
       params.number("ground_offset_stddev_m", config.sensor.ground_offset_stddev_m, Range::closed(0.0, 100.0));
+  config.sensor.shape_sigma_m = params.number("shape_sigma_m", config.sensor.shape_sigma_m, Range::closed(0.0, 100.0));
   config.sensor_model = params.text("sensor_model", config.sensor_model, {"masked", "full_disk"});
   config.match_resolution_m = params.number("match_resolution_m", config.match_resolution_m, Range::open(0.0, 100.0));
   config.odometry_error = params.number("odometry_error", config.odometry_error, Range::closed(0.0, 1.0));

@@ -177,8 +177,8 @@ MaskedEmoiMatcher::Match MaskedEmoiMatcher::match(const cv::Mat_<float>& patch) 
   return out;
 }
 
-MaskedEmoiMatcher::Match MaskedEmoiMatcher::match_at(const cv::Mat_<float>& patch,
-                                                     const std::vector<cv::Point>& cells) const {
+MaskedEmoiMatcher::Match MaskedEmoiMatcher::match_at(const cv::Mat_<float>& patch, const std::vector<cv::Point>& cells,
+                                                     bool shape) const {
   std::vector<std::vector<Offset>> disks;
   Match out = robot_side(patch, disks);
   const int rows = coarse_.geometry.height, cols = coarse_.geometry.width;
@@ -212,12 +212,13 @@ MaskedEmoiMatcher::Match MaskedEmoiMatcher::match_at(const cv::Mat_<float>& patc
   std::vector<size_t> bucket_end(radii, 0);
   // Per bucket: sum r^2 and the count, what the sums over the data mask give where every cell has data.
   std::vector<float> bucket_moment(radii, 0.0f), bucket_count(radii, 0.0f);
-  std::vector<float> term_r2(terms.size());
+  std::vector<float> term_r2(terms.size()), term_value(terms.size());
   std::vector<long> term_linear(terms.size());
   for (size_t t = 0, b = 0; b < radii; ++b) {
     for (; t < terms.size() && terms[t].bucket == b; ++t) {
       term_r2[t] = static_cast<float>(terms[t].r2_m);
       term_linear[t] = terms[t].linear;
+      term_value[t] = patch(patch_radius_ + terms[t].dr, patch_radius_ + terms[t].dc);
       bucket_moment[b] += term_r2[t];
       bucket_count[b] += 1.0f;
     }
@@ -225,6 +226,13 @@ MaskedEmoiMatcher::Match MaskedEmoiMatcher::match_at(const cv::Mat_<float>& patc
   }
   const int n_cells = static_cast<int>(cells.size());
   for (size_t k = 0; k < radii; ++k) out.dsm_emoi.push_back(cv::Mat_<float>(1, n_cells, kNaN));
+  if (shape) out.shape_residual = cv::Mat_<float>(1, n_cells, kNaN);
+  // The robot's side of the shape residual where every cell has data: sum T and sum T^2.
+  double robot_sum = 0.0, robot_square = 0.0;
+  for (const float v : term_value) {
+    robot_sum += v;
+    robot_square += static_cast<double>(v) * v;
+  }
   const float* elevation = filled_.ptr<float>(0);
   const float* valid = valid_.ptr<float>(0);
   const int reach = patch_radius_;
@@ -282,6 +290,55 @@ MaskedEmoiMatcher::Match MaskedEmoiMatcher::match_at(const cv::Mat_<float>& patc
         out.dsm_emoi[k](0, i) = static_cast<float>((m - ground * w) / n / (radii_m_[k] * radii_m_[k]));
       }
     }
+    if (!shape) continue;
+    // Shape: over M (cells with data), with e relative to the candidate's ground,
+    // min_c mean (T - e - c)^2 = var(T) + var(e) - 2 cov(T, e).
+    double se = 0.0, see = 0.0, ste = 0.0, st = robot_sum, stt = robot_square, count = 0.0;
+    const float g = static_cast<float>(ground);
+    if (all_data) {
+      const float* e = elevation + centre;
+      float part_e[2] = {0.0f, 0.0f}, part_ee[2] = {0.0f, 0.0f}, part_te[2] = {0.0f, 0.0f};
+      size_t q = 0;
+      for (; q + 2 <= terms.size(); q += 2) {
+        const float d0 = e[term_linear[q]] - g, d1 = e[term_linear[q + 1]] - g;
+        part_e[0] += d0;
+        part_e[1] += d1;
+        part_ee[0] += d0 * d0;
+        part_ee[1] += d1 * d1;
+        part_te[0] += term_value[q] * d0;
+        part_te[1] += term_value[q + 1] * d1;
+      }
+      for (; q < terms.size(); ++q) {
+        const float d = e[term_linear[q]] - g;
+        part_e[0] += d;
+        part_ee[0] += d * d;
+        part_te[0] += term_value[q] * d;
+      }
+      se = part_e[0] + part_e[1];
+      see = part_ee[0] + part_ee[1];
+      ste = part_te[0] + part_te[1];
+      count = static_cast<double>(terms.size());
+    } else {
+      st = stt = 0.0;
+      for (size_t q = 0; q < terms.size(); ++q) {
+        if (!inside) {
+          const int r = x.y + terms[q].dr, c = x.x + terms[q].dc;
+          if (r < 0 || c < 0 || r >= rows || c >= cols) continue;
+        }
+        const long index = centre + term_linear[q];
+        if (valid[index] == 0.0f) continue;
+        const double d = elevation[index] - ground, v = term_value[q];
+        se += d;
+        see += d * d;
+        ste += v * d;
+        st += v;
+        stt += v * v;
+        count += 1.0;
+      }
+    }
+    if (count < 0.5) continue;
+    const double residual = (stt - st * st / count) + (see - se * se / count) - 2.0 * (ste - st * se / count);
+    out.shape_residual(0, i) = static_cast<float>(std::max(residual, 0.0) / count);
   }
   return out;
 }
@@ -389,6 +446,12 @@ cv::Mat_<float> MaskedEmoiMatcher::coarse_log_likelihood(const Match& match, con
       const float* x = cross.ptr<float>(r);
       for (int c = 0; c < cols; ++c) e[c] += x[c] * x[c] * inverse_information;
     }
+  }
+  if (sensor.shape_sigma_m > 0.0 && !match.shape_residual.empty()) {
+    // The local map's elevations against the DSM's (beyond the paper): a Gaussian on the RMS
+    // residual, log p = -residual / (2 shape_sigma^2).
+    const float scale = static_cast<float>(0.5 / (sensor.shape_sigma_m * sensor.shape_sigma_m));
+    coarse -= scale * match.shape_residual;
   }
   cv::patchNaNs(coarse, floor_exponent);
   cv::max(coarse, floor_exponent, coarse);

@@ -146,7 +146,7 @@ SupportLikelihood support_likelihood(const MaskedEmoiMatcher& matcher,
   std::vector<std::vector<float>> likelihoods;
   bool identity_seen = false;
   for (const DistortionHypothesis& h : hypotheses) {
-    MaskedEmoiMatcher::Match match = matcher.match_at(patch_under(h.transform), out.cells);
+    MaskedEmoiMatcher::Match match = matcher.match_at(patch_under(h.transform), out.cells, sensor.shape_sigma_m > 0.0);
     const bool identity = !identity_seen && h.transform.isApprox(Eigen::Matrix2d::Identity(), 1e-12);
     cv::Mat_<float> l = matcher.coarse_log_likelihood(match, sensor, identity ? &out.weights : nullptr);
     cv::exp(l, l);

@@ -276,6 +276,77 @@ TEST(DistortionMixture, DirectMaskedSumsEqualTheDftMatch) {
   }
 }
 
+// The shape term: at each listed cell, min over c of the mean of (T - e - c)^2 over the observed
+// cells of the largest disk that have data, against that formula summed directly; the map's own
+// elevations cut out as the patch (lifted by a constant) match exactly where they were cut and
+// nowhere better; and the log-likelihood drops by residual / (2 shape_sigma^2).
+TEST(ShapeResidual, EqualsTheBestOffsetMeanSquaredDifference) {
+  for (const float lift : {0.0f, 312.0f}) {
+    ElevationMap map = rough_map(100, 0.5, 5, 0.1);
+    map.elevation += lift;
+    MaskedEmoiMatcher matcher(map, {2.0, 6.0, 4.0}, 0.5);
+    const int half = matcher.patch_radius();
+    const int reach = locd::emoi::radius_in_cells(6.0, 0.5);
+    const cv::Point cut(47, 52);
+    cv::Mat_<float> patch(2 * half + 1, 2 * half + 1, kNaN);
+    std::mt19937 rng(9);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    for (int i = -half; i <= half; ++i)
+      for (int j = -half; j <= half; ++j)
+        if (i > -half / 2 || unit(rng) < 0.3) patch(i + half, j + half) = map.elevation(cut.y + i, cut.x + j) - lift + 1.5f;
+    std::vector<cv::Point> cells{cut, {0, 0}, {99, 3}, {5, 97}, {60, 12}, {88, 88}, {-1, 4}};
+    for (int k = 0; k < 40; ++k) cells.emplace_back(15 + k * 7 % 70, 15 + k * 13 % 70);
+    const auto at = matcher.match_at(patch, cells, true);
+    ASSERT_EQ(at.shape_residual.cols, static_cast<int>(cells.size()));
+    EXPECT_TRUE(matcher.match_at(patch, cells).shape_residual.empty());
+    int compared = 0;
+    for (size_t i = 0; i < cells.size(); ++i) {
+      const cv::Point& x = cells[i];
+      const float got = at.shape_residual(0, static_cast<int>(i));
+      if (x.x < 0 || x.y < 0 || x.x >= 100 || x.y >= 100 || !std::isfinite(map.elevation(x.y, x.x))) {
+        EXPECT_TRUE(std::isnan(got)) << x;
+        continue;
+      }
+      double sum = 0.0, square = 0.0, n = 0.0;
+      for (int dr = -reach; dr <= reach; ++dr)
+        for (int dc = -reach; dc <= reach; ++dc) {
+          const int r = x.y + dr, c = x.x + dc;
+          if (dr * dr + dc * dc >= reach * reach || r < 0 || c < 0 || r >= 100 || c >= 100) continue;
+          const float t = patch(half + dr, half + dc), e = map.elevation(r, c);
+          if (!std::isfinite(t) || !std::isfinite(e)) continue;
+          const double d = static_cast<double>(t) - e;
+          sum += d;
+          square += d * d;
+          n += 1.0;
+        }
+      const double expected = square / n - (sum / n) * (sum / n);
+      EXPECT_NEAR(got, expected, 1e-3 * std::max(1.0, expected)) << x << " lift " << lift;
+      if (i > 0) {
+        EXPECT_GT(got, 0.05) << "only the cut cell matches: " << x;
+      }
+      ++compared;
+    }
+    EXPECT_GE(compared, 30);
+    EXPECT_NEAR(at.shape_residual(0, 0), 0.0, 1e-3);
+
+    compared = 0;
+    SensorModelConfig sensor;
+    sensor.min_coverage = 0.0;
+    sensor.min_likelihood = 1e-30;
+    sensor.sigma_m = 5.0;  // a mild EMOI term: no cell reaches the floor
+    sensor.shape_sigma_m = 0.0;
+    const cv::Mat_<float> emoi_only = matcher.coarse_log_likelihood(at, sensor);
+    sensor.shape_sigma_m = 1.0;
+    const cv::Mat_<float> with_shape = matcher.coarse_log_likelihood(at, sensor);
+    for (int i = 0; i < with_shape.cols; ++i) {
+      if (!std::isfinite(at.shape_residual(0, i)) || with_shape(0, i) <= std::log(1e-30f) + 1e-3f) continue;
+      ++compared;
+      EXPECT_NEAR(with_shape(0, i), emoi_only(0, i) - at.shape_residual(0, i) / 2, 1e-3) << i;
+    }
+    EXPECT_GE(compared, 30);
+  }
+}
+
 // When the rebuilt local map does not depend on the hypothesis, marginalising changes nothing:
 // L_mix equals the plain likelihood on the prior's support, and nothing else is touched.
 TEST(DistortionMixture, HypothesisFreeLocalMapKeepsThePlainLikelihood) {
@@ -288,6 +359,7 @@ TEST(DistortionMixture, HypothesisFreeLocalMapKeepsThePlainLikelihood) {
       if (i > -3) patch(i + half, j + half) = map.elevation(60 + i, 55 + j) - map.elevation(60, 55);
   SensorModelConfig sensor;
   sensor.min_coverage = 0.05;
+  sensor.shape_sigma_m = 0.0;  // the whole-map match (plain) has no shape term
   const auto match = matcher.match(patch);
   cv::Mat_<float> plain = matcher.coarse_log_likelihood(match, sensor);
   cv::exp(plain, plain);

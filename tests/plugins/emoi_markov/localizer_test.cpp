@@ -59,6 +59,9 @@ TEST(EmoiMarkovConfig, EveryBadParameterIsNamedWithWhatIsAllowed) {
   std::string e = config_error(localizer, context, "plugin: emoi_markov\nparams:\n  map: small.tif\n  sigma_m: -1\n");
   EXPECT_NE(e.find("emoi_markov.sigma_m"), std::string::npos) << e;
   EXPECT_NE(e.find("-1"), std::string::npos) << e;
+  e = config_error(localizer, context, "plugin: emoi_markov\nparams:\n  map: small.tif\n  shape_sigma_m: -0.2\n");
+  EXPECT_NE(e.find("emoi_markov.shape_sigma_m"), std::string::npos) << e;
+  EXPECT_NE(e.find("-0.2"), std::string::npos) << e;
   e = config_error(localizer, context, "plugin: emoi_markov\nparams:\n  map: small.tif\n  heading_source: compass\n");
   EXPECT_NE(e.find("heading_source"), std::string::npos) << e;
   EXPECT_NE(e.find("imu"), std::string::npos) << e;

@@ -26,6 +26,8 @@ struct SensorModelConfig {
   double min_coverage = 0.3;        // a radius with a thinner local map is left out
   double full_coverage = 0.9;       // from here on a radius gets its full weight
   double ground_offset_stddev_m = 0.0;  // masked model: prior on the robot's ground height error
+  double shape_sigma_m = 0.2;  // masked model, sparse updates: RMS elevation residual of the local map
+                               // against the DSM worth one standard deviation (0 = EMOI only)
 };
 
 // The robot's measurement: its EMOI per radius and how much of each disk it has observed.

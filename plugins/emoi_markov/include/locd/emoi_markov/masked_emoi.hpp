@@ -39,14 +39,18 @@ class MaskedEmoiMatcher {
     std::vector<size_t> observed;             // per radius, |M|
     std::vector<double> offset_gain;          // per radius, d EMOI / d(centre elevation) = -mean r^2 / R^2 over M
     std::vector<cv::Mat_<float>> dsm_emoi;    // per radius, EMOI_M(x) on the matching grid (or 1 x N at listed cells)
+    // match_at with shape: per listed cell, the mean squared difference between the robot's
+    // elevations and the DSM's over M after the best vertical offset (m^2, NaN: no overlap).
+    cv::Mat_<float> shape_residual;
   };
   // patch: map-aligned, centred on the robot, matching-grid cells, value = elevation minus the
   // robot's ground elevation, NaN = not observed. Size (2 patch_radius + 1)^2.
   Match match(const cv::Mat_<float>& patch) const;
   // The same EMOI_M at the listed matching-grid cells only (x = column, y = row), by direct sums
   // over M: dsm_emoi[radius] is 1 x cells.size(). For a few thousand cells this is cheaper than
-  // the DFTs of match().
-  Match match_at(const cv::Mat_<float>& patch, const std::vector<cv::Point>& cells) const;
+  // the DFTs of match(). With shape, also the elevation residual of the local map at each cell
+  // (Match::shape_residual).
+  Match match_at(const cv::Mat_<float>& patch, const std::vector<cv::Point>& cells, bool shape = false) const;
 
   // log p(z|x) for every entry of match.dsm_emoi (the matching grid, or the listed cells), floored
   // (cells without data get the floor).
