@@ -159,13 +159,14 @@ LocalElevationMap driven_local_map(const ElevationMap& dsm, int row, int col) {
 // concentrated (N(truth, 1 m)) so the odometry-distortion hypotheses run on its support, each
 // rebuilding the robot's patch from the local map, and the sparse sensor model is used (no
 // whole-map DFT match); otherwise the belief is uniform (global) and the DFT match runs.
-void masked_update(benchmark::State& state, bool with_motion, int distortion_nodes) {
+void masked_update(benchmark::State& state, bool with_motion, int distortion_nodes, double shape_sigma_m = 0.2) {
   const ElevationMap& dsm = world_dsm();
   static const MaskedEmoiMatcher matcher(dsm, {5.0, 10.0, 15.0}, 0.5);
   const int row = 1000, col = 1000;
   static const LocalElevationMap local_map = driven_local_map(dsm, row, col);
   MarkovGrid grid(dsm.geometry, cv::Mat_<uchar>(dsm.elevation.size(), uchar(1)));
   SensorModelConfig sensor;
+  sensor.shape_sigma_m = shape_sigma_m;
   DistortionConfig distortion;
   distortion.nodes = distortion_nodes;
   const auto hypotheses = distortion_hypotheses(distortion.scale_stddev, distortion.direction_stddev_rad, distortion.nodes);
@@ -225,9 +226,14 @@ BENCHMARK(BM_SensorUpdateMasked)->Unit(benchmark::kMillisecond);
 void BM_MarkovUpdate(benchmark::State& state) { masked_update(state, true, 1); }
 BENCHMARK(BM_MarkovUpdate)->Unit(benchmark::kMillisecond);
 
-// The same once the belief is concentrated, with the 5 x 5 distortion hypotheses (the default).
+// The same once the belief is concentrated, with the 5 x 5 distortion hypotheses and the shape
+// term (the defaults).
 void BM_MarkovUpdateWithDistortion(benchmark::State& state) { masked_update(state, true, 5); }
 BENCHMARK(BM_MarkovUpdateWithDistortion)->Unit(benchmark::kMillisecond);
+
+// The same without the shape term (shape_sigma_m: 0): what the term costs.
+void BM_MarkovUpdateWithDistortionEmoiOnly(benchmark::State& state) { masked_update(state, true, 5, 0.0); }
+BENCHMARK(BM_MarkovUpdateWithDistortionEmoiOnly)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

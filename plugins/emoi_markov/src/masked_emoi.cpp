@@ -250,10 +250,41 @@ MaskedEmoiMatcher::Match MaskedEmoiMatcher::match_at(const cv::Mat_<float>& patc
                       0;
     // Running sums over the buckets: sum r^2 e and sum r^2 over cells with data (e = 0 without), n.
     double m = 0.0, w = 0.0, n = 0.0;
+    // The shape sums where every cell has data, gathered with the EMOI's (d = e - ground).
+    double fused_e = 0.0, fused_ee = 0.0, fused_te = 0.0;
+    const float g = static_cast<float>(ground);
     size_t t = 0;
     for (size_t b = 0; b < radii; ++b) {
       float bm = 0.0f, bw = 0.0f, bn = 0.0f;
-      if (all_data) {
+      if (all_data && shape) {
+        const float* e = elevation + centre;
+        float part[2] = {0.0f, 0.0f}, pe[2] = {0.0f, 0.0f}, pee[2] = {0.0f, 0.0f}, pte[2] = {0.0f, 0.0f};
+        for (; t + 2 <= bucket_end[b]; t += 2) {
+          const float v0 = e[term_linear[t]], v1 = e[term_linear[t + 1]];
+          const float d0 = v0 - g, d1 = v1 - g;
+          part[0] += term_r2[t] * v0;
+          part[1] += term_r2[t + 1] * v1;
+          pe[0] += d0;
+          pe[1] += d1;
+          pee[0] += d0 * d0;
+          pee[1] += d1 * d1;
+          pte[0] += term_value[t] * d0;
+          pte[1] += term_value[t + 1] * d1;
+        }
+        for (; t < bucket_end[b]; ++t) {
+          const float v = e[term_linear[t]], d = v - g;
+          part[0] += term_r2[t] * v;
+          pe[0] += d;
+          pee[0] += d * d;
+          pte[0] += term_value[t] * d;
+        }
+        bm = part[0] + part[1];
+        fused_e += pe[0] + pe[1];
+        fused_ee += pee[0] + pee[1];
+        fused_te += pte[0] + pte[1];
+        bw = bucket_moment[b];
+        bn = bucket_count[b];
+      } else if (all_data) {
         // Four partial sums: the adds do not wait on each other.
         const float* e = elevation + centre;
         float part[4] = {0.0f, 0.0f, 0.0f, 0.0f};
@@ -293,30 +324,8 @@ MaskedEmoiMatcher::Match MaskedEmoiMatcher::match_at(const cv::Mat_<float>& patc
     if (!shape) continue;
     // Shape: over M (cells with data), with e relative to the candidate's ground,
     // min_c mean (T - e - c)^2 = var(T) + var(e) - 2 cov(T, e).
-    double se = 0.0, see = 0.0, ste = 0.0, st = robot_sum, stt = robot_square, count = 0.0;
-    const float g = static_cast<float>(ground);
+    double se = fused_e, see = fused_ee, ste = fused_te, st = robot_sum, stt = robot_square, count = 0.0;
     if (all_data) {
-      const float* e = elevation + centre;
-      float part_e[2] = {0.0f, 0.0f}, part_ee[2] = {0.0f, 0.0f}, part_te[2] = {0.0f, 0.0f};
-      size_t q = 0;
-      for (; q + 2 <= terms.size(); q += 2) {
-        const float d0 = e[term_linear[q]] - g, d1 = e[term_linear[q + 1]] - g;
-        part_e[0] += d0;
-        part_e[1] += d1;
-        part_ee[0] += d0 * d0;
-        part_ee[1] += d1 * d1;
-        part_te[0] += term_value[q] * d0;
-        part_te[1] += term_value[q + 1] * d1;
-      }
-      for (; q < terms.size(); ++q) {
-        const float d = e[term_linear[q]] - g;
-        part_e[0] += d;
-        part_ee[0] += d * d;
-        part_te[0] += term_value[q] * d;
-      }
-      se = part_e[0] + part_e[1];
-      see = part_ee[0] + part_ee[1];
-      ste = part_te[0] + part_te[1];
       count = static_cast<double>(terms.size());
     } else {
       st = stt = 0.0;
