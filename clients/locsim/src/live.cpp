@@ -31,6 +31,17 @@ struct Published {
 
 }  // namespace
 
+std::chrono::milliseconds server_timeout(const LiveOptions& options) {
+  return std::chrono::milliseconds(static_cast<int64_t>(options.server_timeout_s * 1000));
+}
+
+bool wait_for_server(Client& client, const LiveOptions& options) {
+  if (client.wait_for_server(server_timeout(options))) return true;
+  std::cerr << "locsim: no locd server answered on DDS domain " << options.domain_id << " within "
+            << options.server_timeout_s << " s (is locd running with the same CYCLONEDDS_URI and domain?)\n";
+  return false;
+}
+
 int run_live(const Scenario& scenario, const LiveOptions& options) {
   std::ostream& log = options.json ? std::cerr : std::cout;
   RunResult result;
@@ -41,12 +52,8 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
   result.duration_s = options.duration_s.value_or(scenario.duration_s);
 
   Client client(ClientOptions{options.domain_id, scenario.robot.id, 8});
-  const auto timeout = std::chrono::milliseconds(static_cast<int64_t>(options.server_timeout_s * 1000));
-  if (!client.wait_for_server(timeout)) {
-    std::cerr << "locsim: no locd server answered on DDS domain " << options.domain_id << " within "
-              << options.server_timeout_s << " s (is locd running with the same CYCLONEDDS_URI and domain?)\n";
-    return 2;
-  }
+  const auto timeout = server_timeout(options);
+  if (!wait_for_server(client, options)) return 2;
 
   std::mutex mutex;
   std::vector<PoseUpdate> received;

@@ -1,10 +1,12 @@
 // `locsim live`: the scenario in real time against a running locd over DDS.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <optional>
 #include <string>
 
+#include "locd/client/client.hpp"
 #include "locd/sim/scenario.hpp"
 
 namespace locd::sim {
@@ -21,5 +23,11 @@ struct LiveOptions {
 
 // Returns the process exit code; prints progress to stderr (json) or stdout.
 int run_live(const Scenario& scenario, const LiveOptions& options);
+
+// options.server_timeout_s as a duration.
+std::chrono::milliseconds server_timeout(const LiveOptions& options);
+// Waits for a locd server on the client's domain; false (after saying so on stderr, naming the
+// domain) when none answers within the server timeout.
+bool wait_for_server(Client& client, const LiveOptions& options);
 
 }  // namespace locd::sim

@@ -29,12 +29,8 @@ int run_four_positions_live(const fs::path& scenario_file, const LiveOptions& op
     for (int k = 0; k < scenario.runs; ++k) seeds.push_back(scenario.seed + static_cast<uint64_t>(k));
   }
   Client client(ClientOptions{options.domain_id, scenario.robot_id, 64});
-  const auto timeout = std::chrono::milliseconds(static_cast<int64_t>(options.server_timeout_s * 1000));
-  if (!client.wait_for_server(timeout)) {
-    std::cerr << "locsim: no locd server answered on DDS domain " << options.domain_id << " within "
-              << options.server_timeout_s << " s\n";
-    return 2;
-  }
+  const auto timeout = server_timeout(options);
+  if (!wait_for_server(client, options)) return 2;
   std::mutex mutex;
   std::map<int64_t, PoseUpdate> poses;  // by stamp
   client.on_pose(

@@ -57,12 +57,8 @@ int run_exploration_live(const std::filesystem::path& scenario_file, const LiveO
                          std::optional<uint64_t> seed, bool json) {
   const ExplorationScenario scenario = load_exploration_scenario(scenario_file);
   Client client(ClientOptions{options.domain_id, scenario.robot_id, 8});
-  const auto timeout = std::chrono::milliseconds(static_cast<int64_t>(options.server_timeout_s * 1000));
-  if (!client.wait_for_server(timeout)) {
-    std::cerr << "locsim: no locd server answered on DDS domain " << options.domain_id << " within "
-              << options.server_timeout_s << " s\n";
-    return 2;
-  }
+  const auto timeout = server_timeout(options);
+  if (!wait_for_server(client, options)) return 2;
   const auto status = client.request_session("", scenario.localizer_config, timeout);
   if (!status || !status->request_ok) {
     std::cerr << "locsim: the server " << (status ? "refused the session: " + status->message : "did not answer")
