@@ -35,14 +35,14 @@ Wire zeroed() {
 
 }  // namespace
 
-Header from_wire(const locd_msg_Header& h) { return {h.stamp_ns, to_string(h.frame_id)}; }
+Header from_wire(const locd_msg_MessageHeader& h) { return {h.stamp_ns, to_string(h.frame_id)}; }
 
-void to_wire(const Header& h, locd_msg_Header& out) {
+void to_wire(const Header& h, locd_msg_MessageHeader& out) {
   out.stamp_ns = h.stamp_ns;
   copy_string(out.frame_id, h.frame_id);
 }
 
-Eigen::Isometry3d from_wire(const locd_msg_Pose& p) {
+Eigen::Isometry3d from_wire(const locd_msg_Pose3D& p) {
   const auto& q = p.orientation;
   if (!finite(p.position) || !std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z) || !std::isfinite(q.w)) {
     throw InputError("pose has a NaN or infinite component");
@@ -55,7 +55,7 @@ Eigen::Isometry3d from_wire(const locd_msg_Pose& p) {
   return T;
 }
 
-void to_wire(const Eigen::Isometry3d& T, locd_msg_Pose& out) {
+void to_wire(const Eigen::Isometry3d& T, locd_msg_Pose3D& out) {
   vec(T.translation(), out.position);
   const Eigen::Quaterniond q(T.linear());
   out.orientation = {q.x(), q.y(), q.z(), q.w()};

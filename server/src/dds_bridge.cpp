@@ -179,9 +179,9 @@ void DdsBridge::publish_server_info(const ServerInfoReport& info) {
       std::strncpy(kind.data(), p.consumes[k].c_str(), kind.size() - 1);
       consumes[i].push_back(kind);
     }
-    plugins[i].consumes._length = plugins[i].consumes._maximum = static_cast<uint32_t>(consumes[i].size());
-    plugins[i].consumes._buffer = reinterpret_cast<char(*)[33]>(consumes[i].data());
-    plugins[i].consumes._release = false;
+    plugins[i].consumed_kinds._length = plugins[i].consumed_kinds._maximum = static_cast<uint32_t>(consumes[i].size());
+    plugins[i].consumed_kinds._buffer = reinterpret_cast<char(*)[33]>(consumes[i].data());
+    plugins[i].consumed_kinds._release = false;
   }
   wire.plugins._length = wire.plugins._maximum = static_cast<uint32_t>(plugins.size());
   wire.plugins._buffer = plugins.data();

@@ -92,7 +92,7 @@ Eigen::Isometry3d some_pose(double x, double y, double z, double yaw, double pit
 }
 
 // The wire pose is the position and Eigen's quaternion of the rotation, bit for bit.
-void expect_wire_pose(const locd_msg_Pose& wire, const Eigen::Isometry3d& T) {
+void expect_wire_pose(const locd_msg_Pose3D& wire, const Eigen::Isometry3d& T) {
   const Eigen::Quaterniond q(T.linear());
   EXPECT_EQ(wire.position.x, T.translation().x());
   EXPECT_EQ(wire.position.y, T.translation().y());
@@ -104,7 +104,7 @@ void expect_wire_pose(const locd_msg_Pose& wire, const Eigen::Isometry3d& T) {
   EXPECT_TRUE(dds::from_wire(wire).isApprox(T, 1e-12));
 }
 
-void expect_header(const locd_msg_Header& wire, const Header& h) {
+void expect_header(const locd_msg_MessageHeader& wire, const Header& h) {
   EXPECT_EQ(wire.stamp_ns, h.stamp_ns);
   EXPECT_EQ(dds::to_string(wire.frame_id), h.frame_id);
 }
@@ -461,7 +461,7 @@ TEST(ClientLibrary, ServerInfoAndSessionStatesAreConvertedForLateJoiners) {
   char consumes[2][33]{};
   dds::copy_string(consumes[0], "odometry");
   dds::copy_string(consumes[1], "scan");
-  plugins[0].consumes = {2, 2, consumes, false};
+  plugins[0].consumed_kinds = {2, 2, consumes, false};
   dds::copy_string(plugins[1].name, "ceiling_pf");
   dds::copy_string(plugins[1].version, "0.2.0");
   dds::copy_string(plugins[1].description, "particle filter");

@@ -117,7 +117,7 @@ TEST(Convert, NanAttitudeRejected) {
 
 TEST(Convert, PoseRoundTrip) {
   const Eigen::Isometry3d T = Eigen::Translation3d(1, 2, 3) * Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized());
-  locd_msg_Pose wire{};
+  locd_msg_Pose3D wire{};
   dds::to_wire(T, wire);
   EXPECT_TRUE(dds::from_wire(wire).isApprox(T, 1e-12));
   wire.orientation = {0, 0, 0, 0};

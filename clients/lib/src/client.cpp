@@ -48,7 +48,7 @@ ServerInfo server_info_from_wire(const locd_msg_ServerInfo& m) {
     plugin.name = dds::to_string(p.name);
     plugin.version = dds::to_string(p.version);
     plugin.description = dds::to_string(p.description);
-    for (uint32_t k = 0; k < p.consumes._length; ++k) plugin.consumes.push_back(dds::to_string(p.consumes._buffer[k]));
+    for (uint32_t k = 0; k < p.consumed_kinds._length; ++k) plugin.consumes.push_back(dds::to_string(p.consumed_kinds._buffer[k]));
     info.plugins.push_back(std::move(plugin));
   }
   for (uint32_t i = 0; i < m.rejected_plugins._length; ++i) {

@@ -22,10 +22,10 @@ PoseEstimate from_wire(const locd_msg_PoseEstimate& m);
 PoseEstimate from_wire(const locd_msg_InitialPose& m);
 ExplorationGoal from_wire(const locd_msg_ExplorationGoal& m);
 
-Header from_wire(const locd_msg_Header& h);
-Eigen::Isometry3d from_wire(const locd_msg_Pose& p);  // throws InputError on NaN or a zero quaternion
-void to_wire(const Header& h, locd_msg_Header& out);
-void to_wire(const Eigen::Isometry3d& T, locd_msg_Pose& out);
+Header from_wire(const locd_msg_MessageHeader& h);
+Eigen::Isometry3d from_wire(const locd_msg_Pose3D& p);  // throws InputError on NaN or a zero quaternion
+void to_wire(const Header& h, locd_msg_MessageHeader& out);
+void to_wire(const Eigen::Isometry3d& T, locd_msg_Pose3D& out);
 
 // Writers that publish sdk types for one robot. Buffers are borrowed from the sdk object for
 // the duration of the write, so nothing is copied twice.
