@@ -3,10 +3,11 @@
 // + update, and the two together are timed separately; items/s = scans/s.
 #include <benchmark/benchmark.h>
 
+#include <memory>
 #include <random>
 
 #include "locd/feature_ekf/feature_ekf_filter.hpp"
-#include "synthetic_scan.hpp"
+#include "locd/sim/laser_scanner.hpp"
 
 using namespace locd;
 using namespace locd::feature_ekf;
@@ -43,8 +44,12 @@ const Corridor& corridor() {
       }
     }
     const LaserFeatureExtractor extractor;
+    sim::LaserScannerConfig laser;  // 361 beams over 180 deg, 1 cm noise
+    laser.mount = Pose2(0.1, 0.0, 0.0);
+    const sim::LaserScannerModel scanner(
+        laser, std::make_shared<const sim::SegmentWorld>(sim::SegmentWorld::from_feature_map(world.map)));
     for (const Pose2& pose : world.poses) {
-      world.scans.push_back(test::ray_cast_scan(world.map.lines, pose, test::ScanGeometry{}, &rng));
+      world.scans.push_back(scanner.scan(pose, 0, rng));
       world.features.push_back(extractor.extract(world.scans.back()));
     }
     return world;

@@ -5,11 +5,13 @@
 // the prior the drive had at that frame; BM_DriveReplay/<strategy> replays everything.
 #include <benchmark/benchmark.h>
 
-#include "road_sign_run.hpp"
+#include "locd/sim_feature_ekf/landmark_filter_run.hpp"
 
 using namespace locd;
 using namespace locd::feature_ekf;
 namespace rs = locd::sim::road_signs;
+
+namespace test = locd::sim::road_signs;
 
 namespace {
 

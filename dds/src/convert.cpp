@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstring>
 
+#include "locd/sdk/validate.hpp"
+
 namespace locd::dds {
 namespace {
 
@@ -12,13 +14,6 @@ void borrow(Seq& seq, const void* data, size_t length) {
   seq._maximum = static_cast<uint32_t>(length);
   seq._buffer = static_cast<decltype(seq._buffer)>(const_cast<void*>(data));
   seq._release = false;
-}
-
-void check_limit(const char* topic, const char* what, size_t count, size_t limit, const char* key) {
-  if (count > limit) {
-    throw InputError(std::string(topic) + ": " + std::to_string(count) + " " + what + " exceed the limit " +
-                     key + " = " + std::to_string(limit));
-  }
 }
 
 bool finite(const locd_msg_Vector3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
@@ -69,9 +64,9 @@ Odometry from_wire(const locd_msg_Odometry& m) {
   } catch (const InputError& e) {
     throw InputError(std::string("odometry: ") + e.what());
   }
-  if (!finite(m.linear_velocity) || !finite(m.angular_velocity)) throw InputError("odometry: velocity is NaN or infinite");
   o.linear_velocity = vec(m.linear_velocity);
   o.angular_velocity = vec(m.angular_velocity);
+  validate(o);
   return o;
 }
 
@@ -79,33 +74,19 @@ Imu from_wire(const locd_msg_Imu& m) {
   Imu o;
   o.header = from_wire(m.header);
   const auto& q = m.orientation;
-  if (!std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z) || !std::isfinite(q.w)) {
-    throw InputError("imu: orientation (attitude) is NaN or infinite");
-  }
-  Eigen::Quaterniond quat(q.w, q.x, q.y, q.z);
-  if (quat.norm() < 1e-6) throw InputError("imu: orientation is a zero quaternion");
-  if (!finite(m.angular_velocity) || !finite(m.linear_acceleration)) {
-    throw InputError("imu: angular velocity or acceleration is NaN or infinite");
-  }
-  o.orientation = quat.normalized();
+  o.orientation = Eigen::Quaterniond(q.w, q.x, q.y, q.z);
   o.angular_velocity = vec(m.angular_velocity);
   o.linear_acceleration = vec(m.linear_acceleration);
   o.orientation_stddev = m.orientation_stddev;
   o.acceleration_stddev = m.acceleration_stddev;
+  validate(o);
+  o.orientation.normalize();
   return o;
 }
 
 LaserScan from_wire(const locd_msg_LaserScan& m, const Limits& limits) {
   check_limit("scan", "beams", m.ranges._length, limits.max_scan_beams, "max_scan_beams");
-  if (m.ranges._length == 0) throw InputError("scan: empty (0 beams)");
-  if (m.intensities._length != 0 && m.intensities._length != m.ranges._length) {
-    throw InputError("scan: " + std::to_string(m.intensities._length) + " intensities for " +
-                     std::to_string(m.ranges._length) + " ranges; send none or one per range");
-  }
-  if (!std::isfinite(m.angle_min) || !std::isfinite(m.angle_increment) || m.angle_increment == 0.0f ||
-      !std::isfinite(m.range_min) || !std::isfinite(m.range_max) || !(m.range_max > m.range_min)) {
-    throw InputError("scan: angle_min, angle_increment (non-zero), range_min < range_max must be finite");
-  }
+  check_limit("scan", "intensities", m.intensities._length, limits.max_scan_beams, "max_scan_beams");
   LaserScan s;
   s.header = from_wire(m.header);
   try {
@@ -119,9 +100,7 @@ LaserScan from_wire(const locd_msg_LaserScan& m, const Limits& limits) {
   s.range_max = m.range_max;
   s.ranges.assign(m.ranges._buffer, m.ranges._buffer + m.ranges._length);
   s.intensities.assign(m.intensities._buffer, m.intensities._buffer + m.intensities._length);
-  size_t returns = 0;
-  for (size_t i = 0; i < s.ranges.size(); ++i) returns += s.valid_return(i);
-  if (returns == 0) throw InputError("scan: no beam has a finite range within [range_min, range_max]");
+  validate(s);
   return s;
 }
 
@@ -129,7 +108,6 @@ PointCloud from_wire(const locd_msg_PointCloud& m, const Limits& limits) {
   if (m.xyz._length % 3 != 0) throw InputError("cloud: xyz length " + std::to_string(m.xyz._length) + " is not a multiple of 3");
   const size_t n = m.xyz._length / 3;
   check_limit("cloud", "points", n, limits.max_cloud_points, "max_cloud_points");
-  if (n == 0) throw InputError("cloud: empty (0 points)");
   if (m.intensity._length != 0 && m.intensity._length != n) {
     throw InputError("cloud: " + std::to_string(m.intensity._length) + " intensities for " + std::to_string(n) +
                      " points; send none or one per point");
@@ -149,7 +127,8 @@ PointCloud from_wire(const locd_msg_PointCloud& m, const Limits& limits) {
     c.points.push_back(p);
     if (m.intensity._length) c.intensity.push_back(m.intensity._buffer[i]);
   }
-  if (c.points.empty()) throw InputError("cloud: every point is NaN or infinite");
+  if (n > 0 && c.points.empty()) throw InputError("cloud: every point is NaN or infinite");
+  validate(c);
   return c;
 }
 
@@ -159,7 +138,6 @@ Image from_wire(const locd_msg_Image& m, const Limits& limits) {
   if (encoding == "mono8") channels = 1;
   else if (encoding == "bgr8") channels = 3;
   else throw InputError("image: encoding '" + encoding + "' is not supported; allowed: mono8, bgr8");
-  if (m.width == 0 || m.height == 0) throw InputError("image: width and height must be positive");
   check_limit("image", "pixels", static_cast<size_t>(m.width) * m.height, limits.max_image_pixels, "max_image_pixels");
   const size_t row = static_cast<size_t>(m.width) * channels;
   if (m.step < row) throw InputError("image: step " + std::to_string(m.step) + " is shorter than a row (" + std::to_string(row) + " bytes)");
@@ -176,6 +154,7 @@ Image from_wire(const locd_msg_Image& m, const Limits& limits) {
   for (uint32_t r = 0; r < m.height; ++r) {
     std::memcpy(img.data.data() + r * row, m.data._buffer + static_cast<size_t>(r) * m.step, row);
   }
+  validate(img);
   return img;
 }
 
@@ -188,14 +167,11 @@ LandmarkDetections from_wire(const locd_msg_LandmarkDetections& m, const Limits&
     const auto& d = m.detections._buffer[i];
     LandmarkDetection det;
     det.class_label = to_string(d.class_label);
-    if (!finite(d.position)) throw InputError("detections: detection " + std::to_string(i) + " has a NaN or infinite position");
     det.position = vec(d.position);
-    for (int k = 0; k < 9; ++k) {
-      if (!std::isfinite(d.covariance[k])) throw InputError("detections: detection " + std::to_string(i) + " has a NaN covariance");
-      det.covariance(k / 3, k % 3) = d.covariance[k];
-    }
+    for (int k = 0; k < 9; ++k) det.covariance(k / 3, k % 3) = d.covariance[k];
     out.detections.push_back(std::move(det));
   }
+  validate(out);
   return out;
 }
 

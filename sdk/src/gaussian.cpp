@@ -1,55 +1,23 @@
 #include "locd/sdk/gaussian.hpp"
 
+#include <boost/math/distributions/chi_squared.hpp>
+
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 
 namespace locd {
 
-// Numerical Recipes 6.2: series for x < a + 1, continued fraction otherwise.
-double regularized_gamma_p(double a, double x) {
-  if (x <= 0.0) return 0.0;
-  const double log_prefactor = a * std::log(x) - x - std::lgamma(a);
-  if (x < a + 1.0) {
-    double term = 1.0 / a, sum = term, ap = a;
-    for (int n = 0; n < 1000; ++n) {
-      ap += 1.0;
-      term *= x / ap;
-      sum += term;
-      if (std::abs(term) < std::abs(sum) * 1e-16) break;
-    }
-    return sum * std::exp(log_prefactor);
-  }
-  const double tiny = 1e-300;
-  double b = x + 1.0 - a, c = 1.0 / tiny, d = 1.0 / b, h = d;
-  for (int i = 1; i < 1000; ++i) {
-    const double an = -i * (i - a);
-    b += 2.0;
-    d = an * d + b;
-    if (std::abs(d) < tiny) d = tiny;
-    c = b + an / c;
-    if (std::abs(c) < tiny) c = tiny;
-    d = 1.0 / d;
-    const double delta = d * c;
-    h *= delta;
-    if (std::abs(delta - 1.0) < 1e-16) break;
-  }
-  return 1.0 - std::exp(log_prefactor) * h;
+double chi_square_cdf(double x, int dof) {
+  if (!(x > 0.0)) return 0.0;
+  return boost::math::cdf(boost::math::chi_squared_distribution<double>(dof), x);
 }
-
-double chi_square_cdf(double x, int dof) { return regularized_gamma_p(0.5 * dof, 0.5 * x); }
 
 double chi_square_quantile(double probability, int dof) {
   if (!(probability > 0.0 && probability < 1.0) || dof < 1) {
     throw std::invalid_argument("chi_square_quantile: probability must be in (0, 1), dof >= 1");
   }
-  double lo = 0.0, hi = std::max(1.0, 2.0 * dof);
-  while (chi_square_cdf(hi, dof) < probability) hi *= 2.0;
-  for (int i = 0; i < 200 && hi - lo > 1e-12 * hi; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (chi_square_cdf(mid, dof) < probability ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
+  return boost::math::quantile(boost::math::chi_squared_distribution<double>(dof), probability);
 }
 
 ChiSquareGate::ChiSquareGate(double probability) : probability_(probability) {

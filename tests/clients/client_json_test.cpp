@@ -1,5 +1,5 @@
-// locctl's JSON output: strings escaped per RFC 8259, numbers that read back exactly, null for
-// what JSON cannot represent.
+// locctl's JSON output (nlohmann-json, as locctl writes it): strings escaped per RFC 8259, numbers
+// that read back exactly, null for what JSON cannot represent, keys in the order written.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,6 +10,9 @@
 
 namespace locd::locctl {
 namespace {
+
+std::string json_string(const std::string& text) { return Json(text).dump(); }
+std::string json_number(double value) { return Json(value).dump(); }
 
 TEST(LocctlJson, StringsEscapeQuotesBackslashesAndControlCharacters) {
   EXPECT_EQ(json_string("plain"), "\"plain\"");
@@ -34,21 +37,20 @@ TEST(LocctlJson, NumbersReadBackExactlyAndNonFiniteBecomesNull) {
 }
 
 TEST(LocctlJson, ObjectsAndArraysKeepOrderAndTypes) {
-  const std::string object = JsonObject()
-                                 .add("robot", "r\"1")
-                                 .add("ok", false)
-                                 .add("count", uint64_t{18446744073709551615ull})
-                                 .add("stamp_ns", int64_t{-5})
-                                 .add("x", 0.5)
-                                 .add("consumes", std::vector<std::string>{"odometry", "scan"})
-                                 .add("none", std::vector<std::string>{})
-                                 .add_raw("nested", JsonObject().add("a", 1).str())
-                                 .str();
+  const std::string object = Json{{"robot", "r\"1"},
+                                  {"ok", false},
+                                  {"count", uint64_t{18446744073709551615ull}},
+                                  {"stamp_ns", int64_t{-5}},
+                                  {"x", 0.5},
+                                  {"consumes", std::vector<std::string>{"odometry", "scan"}},
+                                  {"none", std::vector<std::string>{}},
+                                  {"nested", Json{{"a", 1}}}}
+                                 .dump();
   EXPECT_EQ(object,
             "{\"robot\":\"r\\\"1\",\"ok\":false,\"count\":18446744073709551615,\"stamp_ns\":-5,\"x\":0.5,"
             "\"consumes\":[\"odometry\",\"scan\"],\"none\":[],\"nested\":{\"a\":1}}");
-  EXPECT_EQ(JsonObject().str(), "{}");
-  EXPECT_EQ(json_array({"1", "\"b\"", "{}"}), "[1,\"b\",{}]");
+  EXPECT_EQ(Json::object().dump(), "{}");
+  EXPECT_EQ(Json::array({1, "b", Json::object()}).dump(), "[1,\"b\",{}]");
 }
 
 }  // namespace

@@ -25,7 +25,7 @@ std::string binary(const std::string& name) { return locd::sim::test::binary_dir
 
 double json_number(const std::string& json, const std::string& key) {
   std::smatch m;
-  if (!std::regex_search(json, m, std::regex("\"" + key + "\": ([-0-9.e+]+)"))) return NAN;
+  if (!std::regex_search(json, m, std::regex("\"" + key + "\": ?([-0-9.e+]+)"))) return NAN;
   return std::stod(m[1]);
 }
 
@@ -61,7 +61,7 @@ TEST(LocsimLive, CorridorAgainstLocdIsScoredWithLatencies) {
   EXPECT_LT(json_number(output, "rmse_m"), 0.05) << output;
   EXPECT_GT(json_number(output, "latency_ms_p50"), 0.0) << output;
   EXPECT_GE(json_number(output, "latency_ms_p99"), json_number(output, "latency_ms_p50")) << output;
-  EXPECT_NE(output.find("\"converged\": true"), std::string::npos) << output;
+  EXPECT_NE(output.find("\"converged\":true"), std::string::npos) << output;
   EXPECT_TRUE(fs::exists(plot));
   server.signal(SIGINT);
   EXPECT_EQ(server.wait(20s), 0) << server.output();
@@ -129,7 +129,7 @@ TEST(LocsimRun, BadArgumentsAndJsonOutput) {
     for (const char* key : {"plugin", "scenario", "seed", "updates", "mean_error_m", "rmse_m", "p95_error_m", "max_error_m",
                             "final_error_m", "mean_heading_error_deg", "update_ms_p50", "update_ms_p99", "converged",
                             "convergence_time_s"}) {
-      EXPECT_NE(out.find("\"" + std::string(key) + "\": "), std::string::npos) << key << " missing in " << out;
+      EXPECT_NE(out.find("\"" + std::string(key) + "\":"), std::string::npos) << key << " missing in " << out;
     }
     EXPECT_NEAR(json_number(out, "updates"), 126, 1);  // 25 Hz scans over 5 s, both ends
   }

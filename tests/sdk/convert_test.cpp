@@ -123,3 +123,12 @@ TEST(Convert, PoseRoundTrip) {
   wire.orientation = {0, 0, 0, 0};
   EXPECT_THROW(dds::from_wire(wire), InputError);
 }
+
+TEST(Convert, OversizedDetectionFramesRejectedBeforeReadingThem) {
+  Limits limits;
+  limits.max_detections = 4;
+  auto m = zeroed<locd_msg_LandmarkDetections>();
+  m.detections._length = 5;  // buffer deliberately null: reading it would crash
+  const std::string msg = error_of<InputError>([&] { dds::from_wire(m, limits); });
+  EXPECT_NE(msg.find("max_detections"), std::string::npos) << msg;
+}

@@ -1,5 +1,7 @@
 #include "command_line.hpp"
 
+#include <CLI/CLI.hpp>
+
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -81,36 +83,50 @@ long parse_integer(const std::string& option, const std::string& text, long min,
 CommandLine parse_command_line(const std::vector<std::string>& args, const char* domain_env) {
   CommandLine cl;
   if (domain_env && *domain_env) cl.domain = static_cast<unsigned>(parse_integer("LOCD_DOMAIN", domain_env, 0, 232));
+  // CLI11 finds the options anywhere on the line; the values are read as text and converted
+  // below, so every message names the option, the value and what is allowed.
+  CLI::App app{"locctl", "locctl"};
+  app.set_help_flag();
+  app.allow_extras();
   std::vector<std::string> words;
+  std::string domain, timeout, count, std_xy, std_yaw;
+  app.add_option("words", words);
+  app.add_flag("--help,-h", cl.help);
+  app.add_flag("--json", cl.json);
+  app.add_option("--domain", domain);
+  app.add_option("--timeout", timeout);
+  app.add_option("--count", count);
+  app.add_option("--std-xy", std_xy);
+  app.add_option("--std-yaw", std_yaw);
   for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&]() -> const std::string& {
-      if (i + 1 >= args.size()) throw UsageError("option " + a + " needs a value");
-      return args[++i];
-    };
-    if (a == "--help" || a == "-h") {
-      cl.help = true;
-    } else if (a == "--json") {
-      cl.json = true;
-    } else if (a == "--domain") {
-      cl.domain = static_cast<unsigned>(parse_integer("--domain", value(), 0, 232));
-    } else if (a == "--timeout") {
-      const double t = parse_number("--timeout", value());
-      if (!(t > 0.0 && t <= 86400.0)) throw UsageError("--timeout = " + args[i] + " is out of range; allowed: (0, 86400] seconds");
-      cl.timeout_s = t;
-    } else if (a == "--count") {
-      cl.count = parse_integer("--count", value(), 1, 1'000'000'000);
-    } else if (a == "--std-xy") {
-      cl.std_xy = parse_number("--std-xy", value());
-      if (!(cl.std_xy > 0.0)) throw UsageError("--std-xy = " + args[i] + " must be > 0 (metres)");
-    } else if (a == "--std-yaw") {
-      cl.std_yaw = parse_number("--std-yaw", value());
-      if (!(cl.std_yaw > 0.0)) throw UsageError("--std-yaw = " + args[i] + " must be > 0 (radians)");
-    } else if (a.size() > 1 && a[0] == '-' && !(a.size() > 1 && (std::isdigit(static_cast<unsigned char>(a[1])) || a[1] == '.'))) {
-      throw UsageError("unknown option '" + a + "'; see locctl --help");
-    } else {
-      words.push_back(a);
-    }
+    const bool takes_value = args[i] == "--domain" || args[i] == "--timeout" || args[i] == "--count" ||
+                             args[i] == "--std-xy" || args[i] == "--std-yaw";
+    if (takes_value && i + 1 == args.size()) throw UsageError("option " + args[i] + " needs a value");
+  }
+  std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them last first
+  try {
+    app.parse(reversed);
+  } catch (const CLI::ParseError& e) {
+    throw UsageError(std::string(e.what()) + "; see locctl --help");
+  }
+  for (const std::string& extra : app.remaining()) {
+    if (extra.size() > 1 && extra[0] == '-') throw UsageError("unknown option '" + extra + "'; see locctl --help");
+    words.push_back(extra);
+  }
+  if (!domain.empty()) cl.domain = static_cast<unsigned>(parse_integer("--domain", domain, 0, 232));
+  if (!timeout.empty()) {
+    const double t = parse_number("--timeout", timeout);
+    if (!(t > 0.0 && t <= 86400.0)) throw UsageError("--timeout = " + timeout + " is out of range; allowed: (0, 86400] seconds");
+    cl.timeout_s = t;
+  }
+  if (!count.empty()) cl.count = parse_integer("--count", count, 1, 1'000'000'000);
+  if (!std_xy.empty()) {
+    cl.std_xy = parse_number("--std-xy", std_xy);
+    if (!(cl.std_xy > 0.0)) throw UsageError("--std-xy = " + std_xy + " must be > 0 (metres)");
+  }
+  if (!std_yaw.empty()) {
+    cl.std_yaw = parse_number("--std-yaw", std_yaw);
+    if (!(cl.std_yaw > 0.0)) throw UsageError("--std-yaw = " + std_yaw + " must be > 0 (radians)");
   }
   if (words.empty()) {
     if (cl.help) {

@@ -71,24 +71,22 @@ std::string read_file(const std::string& path) {
   return text.str();
 }
 
-std::string status_json(const SessionStatus& s) {
-  return JsonObject()
-      .add("robot", s.robot_id)
-      .add("server", s.server_id)
-      .add("state", s.state)
-      .add("plugin", s.plugin)
-      .add("request_id", s.request_id)
-      .add("request_ok", s.request_ok)
-      .add("message", s.message)
-      .add("last_error", s.last_error)
-      .add("received", s.received)
-      .add("used", s.used)
-      .add("dropped", s.dropped)
-      .add("rejected", s.rejected)
-      .add("updates", s.updates)
-      .add("last_update_ms", s.last_update_ms)
-      .add("stamp_ns", s.stamp_ns)
-      .str();
+Json status_json(const SessionStatus& s) {
+  return {{"robot", s.robot_id},
+          {"server", s.server_id},
+          {"state", s.state},
+          {"plugin", s.plugin},
+          {"request_id", s.request_id},
+          {"request_ok", s.request_ok},
+          {"message", s.message},
+          {"last_error", s.last_error},
+          {"received", s.received},
+          {"used", s.used},
+          {"dropped", s.dropped},
+          {"rejected", s.rejected},
+          {"updates", s.updates},
+          {"last_update_ms", s.last_update_ms},
+          {"stamp_ns", s.stamp_ns}};
 }
 
 // Prints the answer to a session request (use, stop); exit 0 when the server accepted it.
@@ -102,11 +100,7 @@ int report_answer(const CommandLine& cl, const std::string& robot, const std::op
                   "); try a longer --timeout");
   }
   if (cl.json) {
-    std::cout << JsonObject()
-                     .add("command", cl.command)
-                     .add("ok", answer->request_ok)
-                     .add_raw("status", status_json(*answer))
-                     .str()
+    std::cout << Json{{"command", cl.command}, {"ok", answer->request_ok}, {"status", status_json(*answer)}}.dump()
               << "\n";
   } else {
     std::ostream& out = answer->request_ok ? std::cout : std::cerr;
@@ -168,8 +162,10 @@ int command_initial_pose(const CommandLine& cl) {
   }
   if (held->initial_pose_stamp_ns != pose.header.stamp_ns) throw Failure(held->last_error);
   if (cl.json) {
-    std::cout << JsonObject().add("command", "initial-pose").add("ok", true).add("robot", robot).add("x", x).add("y", y)
-                     .add("yaw", yaw).add("std_xy", cl.std_xy).add("std_yaw", cl.std_yaw).str()
+    std::cout << Json{{"command", "initial-pose"}, {"ok", true},       {"robot", robot},
+                      {"x", x},                   {"y", y},          {"yaw", yaw},
+                      {"std_xy", cl.std_xy},      {"std_yaw", cl.std_yaw}}
+                     .dump()
               << "\n";
   } else {
     std::cout << robot << ": initial pose x=" << x << " y=" << y << " yaw=" << yaw << " rad held by plugin " << held->plugin << "\n";
@@ -219,12 +215,11 @@ int command_status(const CommandLine& cl) {
                   " server(s) found; start one with: locctl use " + robot + " CONFIG.yaml");
   }
   if (cl.json) {
-    std::vector<std::string> items;
-    for (const auto& s : statuses) items.push_back(status_json(s));
+    Json sessions = Json::array();
+    for (const auto& s : statuses) sessions.push_back(status_json(s));
     std::vector<std::string> server_ids;
     for (const auto& s : servers) server_ids.push_back(s.server_id);
-    std::cout << JsonObject().add("command", "status").add("ok", true).add("servers", server_ids)
-                     .add_raw("sessions", json_array(items)).str()
+    std::cout << Json{{"command", "status"}, {"ok", true}, {"servers", server_ids}, {"sessions", sessions}}.dump()
               << "\n";
     return 0;
   }
@@ -265,18 +260,15 @@ int command_plugins(const CommandLine& cl) {
   const auto servers = client.servers();
   if (servers.empty()) throw Failure(no_server_message(cl, timeout_s));
   if (cl.json) {
-    std::vector<std::string> items;
+    Json items = Json::array();
     for (const auto& s : servers) {
-      std::vector<std::string> plugins;
+      Json plugins = Json::array();
       for (const auto& p : s.plugins) {
-        plugins.push_back(JsonObject().add("name", p.name).add("version", p.version).add("description", p.description)
-                              .add("consumes", p.consumes).str());
+        plugins.push_back({{"name", p.name}, {"version", p.version}, {"description", p.description}, {"consumes", p.consumes}});
       }
-      items.push_back(JsonObject().add("server", s.server_id).add_raw("plugins", json_array(plugins))
-                          .add("rejected_plugins", s.rejected_plugins).str());
+      items.push_back({{"server", s.server_id}, {"plugins", plugins}, {"rejected_plugins", s.rejected_plugins}});
     }
-    std::cout << JsonObject().add("command", "plugins").add("ok", true).add_raw("servers", json_array(items)).str()
-              << "\n";
+    std::cout << Json{{"command", "plugins"}, {"ok", true}, {"servers", items}}.dump() << "\n";
     return 0;
   }
   for (const auto& s : servers) {
@@ -341,10 +333,12 @@ int command_watch(const CommandLine& cl) {
     const double std_x = std::sqrt(std::max(0.0, p.estimate.covariance(0, 0)));
     const double std_y = std::sqrt(std::max(0.0, p.estimate.covariance(1, 1)));
     if (cl.json) {
-      std::cout << JsonObject().add("robot", p.robot_id).add("stamp_ns", p.estimate.header.stamp_ns)
-                       .add("x", T.translation().x()).add("y", T.translation().y()).add("yaw_deg", yaw_deg)
-                       .add("std_x", std_x).add("std_y", std_y).add("plugin", p.plugin).add("update_ms", p.update_ms)
-                       .str()
+      std::cout << Json{{"robot", p.robot_id}, {"stamp_ns", p.estimate.header.stamp_ns},
+                        {"x", T.translation().x()}, {"y", T.translation().y()},
+                        {"yaw_deg", yaw_deg}, {"std_x", std_x},
+                        {"std_y", std_y}, {"plugin", p.plugin},
+                        {"update_ms", p.update_ms}}
+                       .dump()
                 << std::endl;
     } else {
       char line[256];
@@ -388,7 +382,7 @@ int main(int argc, char** argv) {
     return run(cl);
   } catch (const std::exception& e) {
     if (cl.json) {
-      std::cout << JsonObject().add("command", cl.command).add("ok", false).add("error", e.what()).str() << "\n";
+      std::cout << Json{{"command", cl.command}, {"ok", false}, {"error", e.what()}}.dump() << "\n";
     } else {
       std::cerr << "locctl " << cl.command << ": " << e.what() << "\n";
     }

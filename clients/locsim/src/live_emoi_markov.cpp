@@ -1,5 +1,6 @@
 #include "live_emoi_markov.hpp"
 
+#include <nlohmann/json.hpp>
 #include <yaml-cpp/yaml.h>
 
 #include <chrono>
@@ -10,6 +11,7 @@
 #include <thread>
 
 #include "locd/client/client.hpp"
+#include "locd/emoi_markov/dsm_writer.hpp"
 #include "locd/sim_emoi_markov/four_positions.hpp"
 
 namespace locd::sim {
@@ -126,15 +128,15 @@ int run_four_positions_live(const fs::path& scenario_file, const LiveOptions& op
   std::sort(latencies_ms.begin(), latencies_ms.end());
   const double latency_p50 = latencies_ms.empty() ? 0.0 : latencies_ms[latencies_ms.size() / 2];
   if (json) {
-    std::cout << "{\"scenario\": \"" << scenario.name << "\", \"plugin\": \"emoi_markov\", \"mode\": \"live\", \"runs\": "
-              << seeds.size() << ", \"successes\": " << successes << ", \"success_radius_m\": "
-              << scenario.success_radius_m << ", \"update_latency_p50_ms\": " << latency_p50 << ", \"errors_m\": [";
-    for (size_t i = 0; i < all_errors.size(); ++i) {
-      std::cout << (i ? ", " : "") << "[";
-      for (size_t k = 0; k < all_errors[i].size(); ++k) std::cout << (k ? ", " : "") << all_errors[i][k];
-      std::cout << "]";
-    }
-    std::cout << "]}\n";
+    const nlohmann::ordered_json summary = {{"scenario", scenario.name},
+                                            {"plugin", "emoi_markov"},
+                                            {"mode", "live"},
+                                            {"runs", seeds.size()},
+                                            {"successes", successes},
+                                            {"success_radius_m", scenario.success_radius_m},
+                                            {"update_latency_p50_ms", latency_p50},
+                                            {"errors_m", all_errors}};
+    std::cout << summary.dump() << "\n";
   } else {
     std::cout << "success: " << successes << " / " << seeds.size() << " (belief maximum within "
               << scenario.success_radius_m << " m after update " << scenario.updates

@@ -1,25 +1,22 @@
 // locsim: simulated robots for locd. `run` drives a scenario offline straight through a plugin;
-// `live` publishes it in real time to a running locd over DDS. Both score the estimates.
+// `live` publishes it in real time to a running locd over DDS; `montecarlo` runs many seeded
+// drives. The command line (CLI11) becomes a Command; the scenario's kind (scenario_kinds.hpp)
+// runs it.
+#include <CLI/CLI.hpp>
+
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <limits>
-#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
-#include "live.hpp"
-#include "live_emoi_markov.hpp"
-#include "live_exploration.hpp"
-#include "locd/sim/offline_runner.hpp"
-#include "locd/sim/report.hpp"
-#include "locd/sim/scenario.hpp"
-#include "locd/sim_feature_ekf/montecarlo.hpp"
-#include "locd/sim_emoi_markov/four_positions.hpp"
-#include "locd/sim_icp_explorer/exploration_mission.hpp"
+#include "scenario_kinds.hpp"
 
 namespace fs = std::filesystem;
+using locd::sim::Command;
+using locd::sim::UsageError;
 
 namespace {
 
@@ -38,10 +35,8 @@ const char* kUsage =
     "  locsim --help\n"
     "Plugin directory for run: --plugin-dir, else $LOCD_PLUGIN_DIR, else <locsim's dir>/../plugins.\n";
 
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
+// Numbers are read as text by CLI11 and converted here, so every message names the option, the
+// value and the allowed range.
 double parse_number(const std::string& option, const std::string& text, double min, double max) {
   try {
     size_t used = 0;
@@ -71,120 +66,81 @@ fs::path default_plugin_directory() {
   return self.parent_path() / ".." / "plugins";
 }
 
+// The options as text, before conversion.
+struct Text {
+  std::string scenario, seed, duration, runs, strategies, domain, server_timeout, rate;
+  std::vector<std::string> plugin_directories;
+};
+
+Command parse(const std::vector<std::string>& args) {
+  const std::string mode = args[0];
+  if (mode != "run" && mode != "live" && mode != "montecarlo") {
+    throw UsageError("unknown command '" + mode + "'; known: run, live, montecarlo");
+  }
+  Command c;
+  c.mode = mode;
+  Text text;
+  CLI::App app{"locsim", "locsim"};
+  app.set_help_flag();
+  app.add_option("scenario", text.scenario, "SCENARIO.yaml");
+  app.add_flag("--json", c.json);
+  app.add_option("--plot", c.plot_file);
+  app.add_option("--seed", text.seed);
+  app.add_option("--duration", text.duration);
+  if (mode == "run" || mode == "montecarlo") {
+    app.add_option("--plugin-dir", text.plugin_directories)->expected(1)->take_all();
+  }
+  if (mode == "live") {
+    app.add_option("--domain", text.domain);
+    app.add_option("--server-timeout", text.server_timeout);
+    app.add_option("--rate", text.rate);
+  }
+  if (mode == "montecarlo") {
+    app.add_option("--runs", text.runs);
+    app.add_option("--strategies", text.strategies);
+  }
+  std::vector<std::string> rest(args.rbegin(), args.rend() - 1);  // CLI11 takes them last first
+  try {
+    app.parse(rest);
+  } catch (const CLI::ParseError& e) {
+    throw UsageError(std::string(e.what()) + " (locsim " + mode + ")");
+  }
+  if (!text.seed.empty()) c.seed = parse_unsigned("--seed", text.seed, std::numeric_limits<long>::max());
+  if (!text.duration.empty()) c.duration_s = parse_number("--duration", text.duration, 1e-3, 86400.0);
+  if (!text.runs.empty()) c.runs = static_cast<int>(parse_unsigned("--runs", text.runs, 100000));
+  if (!text.strategies.empty()) {
+    c.strategies.clear();
+    std::stringstream list(text.strategies);
+    for (std::string name; std::getline(list, name, ',');) c.strategies.push_back(name);
+  }
+  if (!text.domain.empty()) c.live.domain_id = static_cast<uint32_t>(parse_unsigned("--domain", text.domain, 232));
+  if (!text.server_timeout.empty()) {
+    c.live.server_timeout_s = parse_number("--server-timeout", text.server_timeout, 0.1, 3600.0);
+  }
+  if (!text.rate.empty()) c.live.rate = parse_number("--rate", text.rate, 0.01, 100.0);
+  for (const std::string& d : text.plugin_directories) c.plugin_directories.push_back(d);
+  if (c.plugin_directories.empty()) c.plugin_directories.push_back(default_plugin_directory());
+  if (text.scenario.empty()) throw UsageError("locsim " + mode + " needs a SCENARIO.yaml");
+  c.scenario_file = text.scenario;
+  return c;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::vector<std::string> args(argv + 1, argv + argc);
-  if (args.empty() || args[0] == "--help" || args[0] == "-h") {
-    (args.empty() ? std::cerr : std::cout) << kUsage;
-    return args.empty() ? 2 : 0;
+  const std::vector<std::string> args(argv + 1, argv + argc);
+  if (args.empty()) {
+    std::cerr << kUsage;
+    return 2;
   }
-  try {
-    const std::string mode = args[0];
-    if (mode != "run" && mode != "live" && mode != "montecarlo") throw UsageError("unknown command '" + mode + "'; known: run, live, montecarlo");
-    std::string scenario_file, plot_file;
-    bool json = false;
-    std::optional<uint64_t> seed;
-    std::optional<double> duration;
-    std::vector<fs::path> plugin_directories;
-    locd::sim::LiveOptions live;
-    locd::sim::road_signs::MonteCarloOptions road_signs;
-    for (size_t i = 1; i < args.size(); ++i) {
-      const std::string& a = args[i];
-      auto value = [&]() -> std::string {
-        if (i + 1 >= args.size()) throw UsageError(a + " needs a value");
-        return args[++i];
-      };
-      if (a == "--json") {
-        json = true;
-      } else if (a == "--plot") {
-        plot_file = value();
-      } else if (a == "--seed") {
-        seed = parse_unsigned(a, value(), std::numeric_limits<long>::max());
-      } else if (a == "--duration") {
-        duration = parse_number(a, value(), 1e-3, 86400.0);
-      } else if (a == "--runs" && mode == "montecarlo") {
-        road_signs.runs = static_cast<int>(parse_unsigned(a, value(), 100000));
-      } else if (a == "--strategies" && mode == "montecarlo") {
-        road_signs.strategies.clear();
-        std::stringstream list(value());
-        for (std::string name; std::getline(list, name, ',');) road_signs.strategies.push_back(name);
-      } else if (a == "--plugin-dir" && (mode == "run" || mode == "montecarlo")) {
-        plugin_directories.push_back(value());
-      } else if (a == "--domain" && mode == "live") {
-        live.domain_id = static_cast<uint32_t>(parse_unsigned(a, value(), 232));
-      } else if (a == "--server-timeout" && mode == "live") {
-        live.server_timeout_s = parse_number(a, value(), 0.1, 3600.0);
-      } else if (a == "--rate" && mode == "live") {
-        live.rate = parse_number(a, value(), 0.01, 100.0);
-      } else if (a == "--help" || a == "-h") {
-        std::cout << kUsage;
-        return 0;
-      } else if (!a.empty() && a[0] != '-' && scenario_file.empty()) {
-        scenario_file = a;
-      } else {
-        throw UsageError("unknown option '" + a + "' for locsim " + mode);
-      }
-    }
-    if (scenario_file.empty()) throw UsageError("locsim " + mode + " needs a SCENARIO.yaml");
-    // feature_ekf's road-sign scenarios: `run` is one drive per strategy, `montecarlo` N drives.
-    if (mode == "live" && locd::sim::road_signs::is_road_signs_scenario(scenario_file)) {
-      throw UsageError("the road-sign scenario runs offline only: locsim run or locsim montecarlo");
-    }
-    if (mode == "montecarlo" || (mode == "run" && locd::sim::road_signs::is_road_signs_scenario(scenario_file))) {
-      if (!locd::sim::road_signs::is_road_signs_scenario(scenario_file)) {
-        throw UsageError("locsim montecarlo needs a road-sign scenario (sensors.sign_detector), e.g. config/scenarios/road_signs.yaml");
-      }
-      if (plugin_directories.empty()) plugin_directories.push_back(default_plugin_directory());
-      road_signs.scenario_file = scenario_file;
-      road_signs.plugin_directories = plugin_directories;
-      road_signs.seed = seed;
-      road_signs.duration_s = duration;
-      if (mode == "run") road_signs.runs = 1;
-      const auto result = locd::sim::road_signs::run_montecarlo(road_signs);
-      if (json) {
-        locd::sim::road_signs::write_montecarlo_json(std::cout, result);
-      } else {
-        locd::sim::road_signs::write_montecarlo_summary(std::cout, result);
-      }
-      if (!plot_file.empty()) {
-        locd::sim::road_signs::plot_montecarlo(plot_file, result);
-        (json ? std::cerr : std::cout) << "plot: " << plot_file << "\n";
-      }
+  for (const std::string& a : args) {
+    if (a == "--help" || a == "-h") {
+      std::cout << kUsage;
       return 0;
     }
-    if (locd::sim::emoi::is_four_positions_scenario(scenario_file)) {  // emoi_markov's experiment
-      if (mode == "live") return locd::sim::run_four_positions_live(scenario_file, live, seed, json);
-      if (plugin_directories.empty()) plugin_directories.push_back(default_plugin_directory());
-      return locd::sim::emoi::locsim_run_four_positions(scenario_file, plugin_directories, seed, json, std::cout);
-    }
-    if (locd::sim::is_exploration_scenario(scenario_file)) {  // icp_explorer's exploration mission
-      if (mode == "live") return locd::sim::run_exploration_live(scenario_file, live, seed, json);
-      if (plugin_directories.empty()) plugin_directories.push_back(default_plugin_directory());
-      return locd::sim::locsim_run_exploration(scenario_file, plugin_directories, seed, json, std::cout);
-    }
-    const locd::sim::Scenario scenario = locd::sim::load_scenario(scenario_file);
-
-    if (mode == "live") {
-      live.seed = seed;
-      live.duration_s = duration;
-      live.json = json;
-      live.plot_file = plot_file;
-      return locd::sim::run_live(scenario, live);
-    }
-    if (plugin_directories.empty()) plugin_directories.push_back(default_plugin_directory());
-    locd::sim::OfflineRunOptions options{plugin_directories, seed, duration};
-    const locd::sim::RunResult result = locd::sim::run_offline(scenario, options);
-    if (json) {
-      locd::sim::write_json(std::cout, result);
-    } else {
-      locd::sim::write_summary(std::cout, result);
-    }
-    if (!plot_file.empty()) {
-      locd::sim::plot_run(plot_file, scenario.map, result);
-      (json ? std::cerr : std::cout) << "plot: " << plot_file << "\n";
-    }
-    return result.summary.updates > 0 ? 0 : 1;
+  }
+  try {
+    return locd::sim::run_command(parse(args));
   } catch (const UsageError& e) {
     std::cerr << "locsim: " << e.what() << "\n" << kUsage;
     return 2;

@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "locd/sdk/plugin_loader.hpp"
+#include "locd/sdk/validate.hpp"
 #include "locd/sim/simulation.hpp"
 
 namespace locd::sim {
@@ -29,6 +30,7 @@ RunResult run_offline(const Scenario& scenario, const OfflineRunOptions& options
     UpdateResult update;
     const auto begin = std::chrono::steady_clock::now();
     try {
+      validate(m->measurement);  // as the server's bridge does: the plugin trusts what it is given
       update = localizer->update(m->measurement);
     } catch (const InputError& e) {
       ++result.rejected;

@@ -1,5 +1,7 @@
 #include "locd/sim/report.hpp"
 
+#include <nlohmann/json.hpp>
+
 #include <cmath>
 #include <iomanip>
 #include <optional>
@@ -7,74 +9,39 @@
 
 namespace locd::sim {
 
-namespace {
-
-std::string json_string(const std::string& s) {
-  std::ostringstream out;
-  out << '"';
-  for (const char c : s) {
-    switch (c) {
-      case '"': out << "\\\""; break;
-      case '\\': out << "\\\\"; break;
-      case '\n': out << "\\n"; break;
-      case '\t': out << "\\t"; break;
-      case '\r': out << "\\r"; break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          out << "\\u" << std::hex << std::setw(4) << std::setfill('0') << static_cast<int>(c) << std::dec;
-        } else {
-          out << c;
-        }
-    }
-  }
-  out << '"';
-  return out.str();
-}
-
-std::string json_number(double v) {
-  if (!std::isfinite(v)) return "null";
-  std::ostringstream out;
-  out << std::setprecision(6) << v;
-  return out.str();
-}
-
-std::string json_number(const std::optional<double>& v) { return v ? json_number(*v) : "null"; }
-
-}  // namespace
-
+// One JSON object on one line (nlohmann-json; a non-finite number is written as null).
 void write_json(std::ostream& out, const RunResult& r) {
   const EvaluationSummary& s = r.summary;
-  std::vector<std::pair<std::string, std::string>> fields = {
-      {"plugin", json_string(r.plugin)},
-      {"scenario", json_string(r.scenario)},
-      {"robot", json_string(r.robot_id)},
-      {"seed", std::to_string(r.seed)},
-      {"duration_s", json_number(r.duration_s)},
-      {"measurements", std::to_string(r.measurements)},
-      {"rejected", std::to_string(r.rejected)},
-      {"updates", std::to_string(s.updates)},
-      {"mean_error_m", json_number(s.mean_error_m)},
-      {"rmse_m", json_number(s.rmse_m)},
-      {"p95_error_m", json_number(s.p95_error_m)},
-      {"max_error_m", json_number(s.max_error_m)},
-      {"final_error_m", json_number(s.final_error_m)},
-      {"mean_heading_error_deg", json_number(s.mean_heading_error_deg)},
-      {"update_ms_p50", json_number(s.update_ms_p50)},
-      {"update_ms_p99", json_number(s.update_ms_p99)},
-      {"converged", s.converged ? "true" : "false"},
-      {"convergence_time_s", json_number(s.convergence_time_s)},
+  const auto optional = [](const std::optional<double>& v) {
+    return v ? nlohmann::ordered_json(*v) : nlohmann::ordered_json(nullptr);
+  };
+  nlohmann::ordered_json json = {
+      {"plugin", r.plugin},
+      {"scenario", r.scenario},
+      {"robot", r.robot_id},
+      {"seed", r.seed},
+      {"duration_s", r.duration_s},
+      {"measurements", r.measurements},
+      {"rejected", r.rejected},
+      {"updates", s.updates},
+      {"mean_error_m", s.mean_error_m},
+      {"rmse_m", s.rmse_m},
+      {"p95_error_m", s.p95_error_m},
+      {"max_error_m", s.max_error_m},
+      {"final_error_m", s.final_error_m},
+      {"mean_heading_error_deg", s.mean_heading_error_deg},
+      {"update_ms_p50", s.update_ms_p50},
+      {"update_ms_p99", s.update_ms_p99},
+      {"converged", s.converged},
+      {"convergence_time_s", optional(s.convergence_time_s)},
   };
   if (s.latency_ms_p50) {
-    fields.push_back({"latency_ms_p50", json_number(s.latency_ms_p50)});
-    fields.push_back({"latency_ms_p99", json_number(s.latency_ms_p99)});
-    fields.push_back({"overhead_ms_p50", json_number(s.overhead_ms_p50)});
-    fields.push_back({"overhead_ms_p99", json_number(s.overhead_ms_p99)});
+    json["latency_ms_p50"] = optional(s.latency_ms_p50);
+    json["latency_ms_p99"] = optional(s.latency_ms_p99);
+    json["overhead_ms_p50"] = optional(s.overhead_ms_p50);
+    json["overhead_ms_p99"] = optional(s.overhead_ms_p99);
   }
-  out << "{";
-  for (size_t i = 0; i < fields.size(); ++i) {
-    out << (i ? ", " : "") << json_string(fields[i].first) << ": " << fields[i].second;
-  }
-  out << "}\n";
+  out << json.dump() << "\n";
 }
 
 void write_summary(std::ostream& out, const RunResult& r) {

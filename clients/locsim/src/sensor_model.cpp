@@ -2,7 +2,7 @@
 
 #include "locd/sim/laser_scanner.hpp"
 #include "locd/sim/odometry_model.hpp"
-#include "locd/sim_ceiling_pf/ceiling_camera_sensor.hpp"
+#include "locd/sim/ceiling_camera_sensor.hpp"
 
 namespace locd::sim {
 
@@ -18,7 +18,7 @@ std::vector<std::unique_ptr<SensorModel>> make_sensor_models(const Params& senso
     models.push_back(std::make_unique<LaserScannerModel>(LaserScannerConfig::from_params(sensors.child("laser")), world));
   }
   if (sensors.has("ceiling_camera")) {
-    models.push_back(ceiling::make_ceiling_camera_sensor(sensors.child("ceiling_camera")));
+    models.push_back(make_ceiling_camera_sensor(sensors.child("ceiling_camera")));
   }
   if (models.empty()) throw ConfigError("parameter 'sensors' names no sensor; known: odometry, laser, ceiling_camera");
   return models;

@@ -86,7 +86,7 @@ TEST(CeilingPfCamera, AgreesWithTheSimulatorsIndependentProjection) {
 }
 
 TEST(CeilingPfCamera, RejectsCeilingBelowLens) {
-  EXPECT_THROW(CeilingCamera(CameraIntrinsics{}, CameraMounting{0, 0, 0, 3.0}, 2.42), std::invalid_argument);
+  EXPECT_THROW(CeilingCamera(CameraIntrinsics{}, CameraMounting{0, 0, 0, 3.0}, 2.42), ConfigError);
 }
 
 class CeilingPfNearestLandmarkIndexTest : public ::testing::TestWithParam<std::tuple<std::string, int>> {};
@@ -103,7 +103,7 @@ TEST_P(CeilingPfNearestLandmarkIndexTest, MatchesBruteForce) {
   const NearestLandmarkIndex index(world.landmarks(), k, 0.5, 4.0, 1'000'000);
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> x(-8, 38), y(-8, 28);  // also outside the grid
-  int fast[8], slow[8];
+  LandmarkCandidates fast, slow;
   for (int i = 0; i < 3000; ++i) {
     const Eigen::Vector2d p(x(rng), y(rng));
     const int n = index.nearest(p, fast);

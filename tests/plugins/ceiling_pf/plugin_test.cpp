@@ -129,23 +129,12 @@ TEST(CeilingPfPlugin, BadInputIsRejectedAndTheSessionGoesOn) {
   small.height = 240;
   small.data.assign(320 * 240, 0);
   EXPECT_NE(input_error(small).find("640 x 480"), std::string::npos);
-  Image truncated;
-  truncated.width = 640;
-  truncated.height = 480;
-  truncated.data.assign(1000, 0);
-  EXPECT_NE(input_error(truncated).find("bytes"), std::string::npos);
-  LandmarkDetections nan;
-  nan.detections.resize(2);
-  nan.detections[1].position = Eigen::Vector3d(1.0, std::nan(""), 0.0);
-  EXPECT_NE(input_error(nan).find("detection 1"), std::string::npos);
-  LandmarkDetections many;
-  many.detections.resize(f.context.limits.max_detections + 1);
-  EXPECT_NE(input_error(many).find("max_detections"), std::string::npos);
+  // Truncated images, NaN detections, oversized frames and stamps going backwards never reach the
+  // plugin: the bridge and the session refuse them (tests/sdk/validate_test.cpp, tests/sdk/
+  // convert_test.cpp, tests/server/session_test.cpp).
   Odometry o;
   o.header.stamp_ns = 2'000'000'000;
   EXPECT_EQ(input_error(o), "accepted");
-  o.header.stamp_ns = 1'000'000'000;
-  EXPECT_NE(input_error(o).find("not after"), std::string::npos);
   EXPECT_NE(input_error(PointCloud{}).find("consumes"), std::string::npos);
   // Still working: a good (empty) frame gives an estimate and counts the rejections.
   Image dark;
@@ -155,7 +144,7 @@ TEST(CeilingPfPlugin, BadInputIsRejectedAndTheSessionGoesOn) {
   const UpdateResult r = l->update(dark);
   ASSERT_TRUE(r.estimate.has_value());
   bool counted = false;
-  for (const auto& [name, value] : r.diagnostics.values) counted = counted || (name == "rejected_inputs" && value == 7.0);
+  for (const auto& [name, value] : r.diagnostics.values) counted = counted || (name == "rejected_inputs" && value == 3.0);
   EXPECT_TRUE(counted);
 }
 

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <thread>
 
+#include "locd/emoi_markov/dsm_writer.hpp"
 #include "locd/sim_emoi_markov/four_positions.hpp"
 #include "robot_side.hpp"
 #include "test_server.hpp"

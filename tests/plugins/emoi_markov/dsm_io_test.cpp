@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include "locd/emoi_markov/dsm_io.hpp"
+#include "locd/emoi_markov/dsm_writer.hpp"
 #include "locd/sdk/errors.hpp"
 
 namespace {

@@ -5,10 +5,12 @@
 
 #include "locd/feature_ekf/landmark_ekf_filter.hpp"
 #include "locd/sdk/errors.hpp"
-#include "road_sign_run.hpp"
+#include "locd/sim_feature_ekf/landmark_filter_run.hpp"
 
 using namespace locd;
 using namespace locd::feature_ekf;
+
+namespace test = locd::sim::road_signs;
 
 namespace {
 
@@ -163,14 +165,13 @@ TEST(LandmarkAssociationStrategies, BadInputIsRejectedAndTheFilterGoesOn) {
   LandmarkEkfFilter f = filter(AssociationStrategy::kPda, 0.0);
   const std::string unknown = input_error([&] { f.update(frame({{"stop", kSeenA}})); });
   EXPECT_NE(unknown.find("class 'stop' is not in the landmark database; known: x, y"), std::string::npos) << unknown;
-  EXPECT_NE(input_error([&] { f.update(frame({{"x", Eigen::Vector2d(NAN, 1.0)}})); }).find("NaN"), std::string::npos);
-  Imu bad;
-  bad.header.stamp_ns = 5;
-  bad.orientation.coeffs() << NAN, 0, 0, 1;
-  EXPECT_NE(input_error([&] { f.apply_imu(bad); }).find("orientation is NaN"), std::string::npos);
+  // NaN detections and attitudes never reach the filter (the bridge refuses them:
+  // tests/sdk/validate_test.cpp); a sample not after the previous one predicts nothing.
   Imu late;
   late.header.stamp_ns = 0;
-  EXPECT_NE(input_error([&] { f.apply_imu(late); }).find("not after the previous"), std::string::npos);
+  const Eigen::Vector4d before = f.state();
+  EXPECT_FALSE(f.apply_imu(late));
+  EXPECT_EQ(f.state(), before);
   EXPECT_TRUE(f.update(frame({{"x", kSeenA}}, 6)).detections[0].applied);
 
   LandmarkEkfConfig c;
@@ -195,7 +196,7 @@ TEST(LandmarkEkfDrive, EveryStrategyTracksAShortDrive) {
   for (AssociationStrategy s : {AssociationStrategy::kKnownId, AssociationStrategy::kNearestNeighbor,
                                 AssociationStrategy::kJcbb, AssociationStrategy::kPda}) {
     for (LandmarkModelKind model : {LandmarkModelKind::kGeodetic, LandmarkModelKind::kEnu}) {
-      const test::RunResult r = test::run_drive(world, drive, test::config_for(world, s, model), 5, 11, {3.0, -2.0});
+      const test::FilterRunResult r = test::run_drive(world, drive, test::config_for(world, s, model), 5, 11, {3.0, -2.0});
       std::vector<double> sorted = r.errors;
       std::sort(sorted.begin(), sorted.end());
       EXPECT_GT(r.applied, 15u);
@@ -215,7 +216,7 @@ TEST(LandmarkEkfDrive, DeadReckoningWithExactSensorsFollowsTheTruth) {
   drive.heading_error_rms_deg = drive.tilt_error_rms_deg = 0.0;
   drive.detection_probability = 0.0;
   drive.false_detection_rate = 0.0;
-  const test::RunResult r = test::run_drive(world, drive, test::config_for(world, AssociationStrategy::kPda), 5, 1, {0.0, 0.0});
+  const test::FilterRunResult r = test::run_drive(world, drive, test::config_for(world, AssociationStrategy::kPda), 5, 1, {0.0, 0.0});
   EXPECT_LT(r.max_error(), 1.0);
   EXPECT_EQ(r.applied, 0u);
 }

@@ -210,3 +210,16 @@ TEST(FeatureEkfFilter, LapOfTheCorridorWorldStaysWithinFiveCentimetres) {
   EXPECT_LT(lap.rmse, 0.05);
   EXPECT_LT(lap.max_error, 0.3);
 }
+
+// Stamps reach the filter in order (the session sees to it); a repeated odometry stamp is a step
+// of no time and predicts nothing.
+TEST(FeatureEkfFilter, ARepeatedOdometryStampPredictsNothing) {
+  FeatureEkfFilter filter(FeatureEkfConfig{}, test::map_from_walls(kBuilding));
+  EXPECT_FALSE(filter.apply_odometry(Pose2(0.0, 0.0, 0.0), 1'000'000'000));
+  EXPECT_TRUE(filter.apply_odometry(Pose2(0.02, 0.0, 0.0), 1'020'000'000));
+  const Eigen::Matrix3d P = filter.covariance();
+  const Eigen::Vector3d x = filter.pose();
+  EXPECT_FALSE(filter.apply_odometry(Pose2(0.04, 0.0, 0.0), 1'020'000'000));
+  EXPECT_EQ(filter.covariance(), P);
+  EXPECT_EQ(filter.pose(), x);
+}

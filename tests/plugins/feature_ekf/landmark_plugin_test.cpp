@@ -106,24 +106,13 @@ TEST_F(FeatureEkfLandmarkPlugin, BadInputIsRejectedAndTheSessionGoesOn) {
   Imu imu;
   imu.header.stamp_ns = 5;
   plugin->update(imu);
-  Imu nan_imu = imu;
-  nan_imu.header.stamp_ns = 6;
-  nan_imu.orientation.coeffs() << NAN, 0, 0, 1;
-  EXPECT_NE(input_error(*plugin, nan_imu).find("orientation is NaN"), std::string::npos);
-  Imu backwards = imu;
-  backwards.header.stamp_ns = 4;
-  EXPECT_NE(input_error(*plugin, backwards).find("not after the previous"), std::string::npos);
+  // NaN attitudes, oversized frames and stamps going backwards never reach the plugin: the bridge
+  // and the session refuse them (tests/sdk/validate_test.cpp, tests/server/session_test.cpp).
   LandmarkDetections unknown = frame;
   unknown.detections[0].class_label = "stop_sign";
   EXPECT_NE(input_error(*plugin, unknown).find("class 'stop_sign' is not in the landmark database"), std::string::npos);
   EXPECT_NE(input_error(*plugin, LaserScan{}).find("'scan' is not consumed by model geodetic_landmarks"), std::string::npos);
-  LandmarkDetections many = frame;
-  many.detections.resize(context_.limits.max_detections + 1, frame.detections[0]);
-  EXPECT_NE(input_error(*plugin, many).find("limit max_detections"), std::string::npos);
   EXPECT_TRUE(plugin->update(frame).estimate.has_value());
-  LandmarkDetections older = frame;
-  older.header.stamp_ns = 9;
-  EXPECT_NE(input_error(*plugin, older).find("goes backwards"), std::string::npos);
 }
 
 TEST_F(FeatureEkfLandmarkPlugin, ConfigErrorsNameTheKey) {

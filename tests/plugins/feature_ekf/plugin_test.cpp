@@ -125,36 +125,13 @@ TEST_F(FeatureEkfPlugin, BadMeasurementsAreRejectedAndTheSessionGoesOn) {
   LaserScan scan = test::ray_cast_scan(map.lines, Pose2(6.0, 1.5, 0.0), test::ScanGeometry{});
   scan.header.stamp_ns = 1'000'000'000;
 
-  LaserScan all_nan = scan;
-  std::fill(all_nan.ranges.begin(), all_nan.ranges.end(), std::numeric_limits<float>::quiet_NaN());
-  EXPECT_THROW(localizer->update(all_nan), InputError);
-  LaserScan empty = scan;
-  empty.ranges.clear();
-  EXPECT_THROW(localizer->update(empty), InputError);
-  LaserScan no_increment = scan;
-  no_increment.angle_increment = 0.0f;
-  EXPECT_THROW(localizer->update(no_increment), InputError);
-  LaserScan too_many = scan;
-  too_many.ranges.resize(Limits{}.max_scan_beams + 1, 1.0f);
-  EXPECT_THROW(localizer->update(too_many), InputError);
-
-  Odometry nan_odometry = odometry_at(Pose2(0, 0, 0), 0);
-  nan_odometry.pose.translation().x() = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_THROW(localizer->update(nan_odometry), InputError);
+  // Empty, all-NaN, zero-increment and oversized scans, NaN odometry and stamps going backwards
+  // never reach the plugin: the bridge and the session refuse them (tests/sdk/validate_test.cpp,
+  // tests/server/session_test.cpp). What the plugin itself refuses:
   EXPECT_THROW(localizer->update(Imu{}), InputError);
 
   EXPECT_TRUE(localizer->update(scan).estimate.has_value());
-  LaserScan older = scan;
-  older.header.stamp_ns -= 1;
-  try {
-    localizer->update(older);
-    ADD_FAILURE() << "a scan going backwards was accepted";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("backwards"), std::string::npos) << e.what();
-  }
   EXPECT_FALSE(localizer->update(odometry_at(Pose2(0, 0, 0), 2'000'000'000)).estimate.has_value());
-  EXPECT_THROW(localizer->update(odometry_at(Pose2(0, 0, 0), 1'999'999'999)), InputError);
-  EXPECT_THROW(localizer->update(odometry_at(Pose2(0, 0, 0), 2'000'000'000)), InputError);
   // A scan stamped before the latest odometry (but after the previous scan) is still fused.
   LaserScan late = scan;
   late.header.stamp_ns += 1;

@@ -119,19 +119,13 @@ TEST(IcpExplorerPlugin, ConfigErrorsNameKeyValueAndAllowed) {
 TEST(IcpExplorerPlugin, BadCloudsAreRejectedOrCounted) {
   Logged logged;
   auto plugin = configured(kToyParams, &logged, 60000);
-  locd::PointCloud empty;
-  EXPECT_THROW(plugin->update(empty), locd::InputError);
+  // Empty clouds, clouds of NaN points only and intensity lists of the wrong size never reach the
+  // plugin: the bridge refuses them (tests/sdk/validate_test.cpp). Its own limit, max_points:
   locd::PointCloud big;
   big.points.assign(50001, Eigen::Vector3f(1, 0, 0));
   const std::string limit = message_of([&] { plugin->update(big); });
   EXPECT_NE(limit.find("50001"), std::string::npos) << limit;
   EXPECT_NE(limit.find("50000"), std::string::npos) << limit;
-  locd::PointCloud all_nan;
-  all_nan.points.assign(10, Eigen::Vector3f(NAN, 0, 0));
-  EXPECT_THROW(plugin->update(all_nan), locd::InputError);
-  locd::PointCloud mismatched = toy_scan(locd::Pose2(3.0, 1.2, 0.0), 1);
-  mismatched.intensity.resize(5);
-  EXPECT_THROW(plugin->update(mismatched), locd::InputError);
   EXPECT_THROW(plugin->update(locd::Imu{}), locd::InputError);
 
   locd::PointCloud with_nan = toy_scan(locd::Pose2(3.0, 1.2, 0.0), 2);

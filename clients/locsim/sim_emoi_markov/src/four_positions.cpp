@@ -1,10 +1,15 @@
 #include "locd/sim_emoi_markov/four_positions.hpp"
 
+#include <nlohmann/json.hpp>
+
 #include <chrono>
 #include <cmath>
 #include <fstream>
 #include <sstream>
 
+#include "localizer.hpp"
+#include "params.hpp"
+#include "locd/emoi_markov/dsm_writer.hpp"
 #include "locd/sdk/errors.hpp"
 #include "locd/sdk/plugin_config.hpp"
 #include "locd/sdk/plugin_loader.hpp"
@@ -120,7 +125,7 @@ void simulate_measurements(const FourPositionsScenario& scenario, const Simulate
 namespace {
 
 RunResult drive(const FourPositionsScenario& scenario, const SimulatedRun& run, uint64_t seed, Localizer& localizer,
-                const locd::emoi::EmoiMarkovLocalizer* core) {
+                const locd::emoi::EmoiMarkovFilter* core) {
   RunResult result;
   result.seed = seed;
   double update_ms_total = 0.0;
@@ -184,7 +189,7 @@ RunResult run_four_positions(const FourPositionsScenario& scenario, uint64_t see
   const auto start = std::chrono::steady_clock::now();
   localizer.configure(context, config, run.dsm);
   const double layers_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  RunResult result = drive(scenario, run, seed, localizer, &localizer);
+  RunResult result = drive(scenario, run, seed, localizer, &localizer.filter());
   result.layers_seconds = layers_seconds;
   return result;
 }
@@ -256,16 +261,20 @@ int locsim_run_four_positions(const fs::path& file, const std::vector<fs::path>&
   }
   const double rate = seeds.empty() ? 0.0 : static_cast<double>(successes) / static_cast<double>(seeds.size());
   if (json) {
-    out << "{\"scenario\": \"" << scenario.name << "\", \"plugin\": \"emoi_markov\", \"runs\": " << seeds.size()
-        << ", \"successes\": " << successes << ", \"success_rate\": " << rate
-        << ", \"success_radius_m\": " << scenario.success_radius_m << ", \"updates\": " << scenario.updates
-        << ", \"errors_m\": [";
-    for (size_t i = 0; i < results.size(); ++i) {
-      out << (i ? ", " : "") << "[";
-      for (size_t k = 0; k < results[i].updates.size(); ++k) out << (k ? ", " : "") << results[i].updates[k].error_m;
-      out << "]";
+    std::vector<std::vector<double>> errors;
+    for (const RunResult& r : results) {
+      errors.emplace_back();
+      for (const auto& u : r.updates) errors.back().push_back(u.error_m);
     }
-    out << "]}\n";
+    const nlohmann::ordered_json summary = {{"scenario", scenario.name},
+                                            {"plugin", "emoi_markov"},
+                                            {"runs", seeds.size()},
+                                            {"successes", successes},
+                                            {"success_rate", rate},
+                                            {"success_radius_m", scenario.success_radius_m},
+                                            {"updates", scenario.updates},
+                                            {"errors_m", errors}};
+    out << summary.dump() << "\n";
   } else {
     out << "success: " << successes << " / " << seeds.size() << " (belief maximum within " << scenario.success_radius_m
         << " m of the truth after update " << scenario.updates << ")\n";

@@ -3,6 +3,7 @@
 // or as a 16-bit PNG with its YAML sidecar (1 cm steps).
 #include <iostream>
 
+#include "locd/emoi_markov/dsm_writer.hpp"
 #include "locd/sim_emoi_markov/four_positions.hpp"
 
 int main(int argc, char** argv) {

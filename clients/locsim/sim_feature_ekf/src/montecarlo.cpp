@@ -1,5 +1,7 @@
 #include "locd/sim_feature_ekf/montecarlo.hpp"
 
+#include <nlohmann/json.hpp>
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -125,29 +127,26 @@ MonteCarloResult run_montecarlo(const MonteCarloOptions& options) {
   return result;
 }
 
+// One JSON object, indented (nlohmann-json: strings escaped, a non-finite number written as null).
 void write_montecarlo_json(std::ostream& out, const MonteCarloResult& result) {
-  auto list = [&](const std::vector<double>& v) {
-    out << "[";
-    for (size_t i = 0; i < v.size(); ++i) out << (i ? ", " : "") << v[i];
-    out << "]";
-  };
-  out << std::fixed << std::setprecision(4) << "{\n  \"scenario\": \"" << result.scenario << "\",\n  \"runs\": " << result.runs
-      << ",\n  \"bin_s\": " << result.bin_s << ",\n  \"strategies\": {";
-  for (size_t i = 0; i < result.strategies.size(); ++i) {
-    const StrategyResult& s = result.strategies[i];
-    out << (i ? "," : "") << "\n    \"" << s.strategy << "\": {\"cep50_m\": " << s.cep50_m << ", \"cep95_m\": " << s.cep95_m
-        << ", \"max_error_m\": " << s.max_error_m << ", \"wrong_association_rate\": " << s.wrong_association_rate
-        << ", \"detections\": " << s.detections << ", \"false_detections\": " << s.false_detections
-        << ", \"wrong_associations\": " << s.wrong << ", \"false_detections_associated\": " << s.false_associated
-        << ", \"rejected\": " << s.rejected << ",\n      \"cep50_over_time_m\": ";
-    list(s.cep50_over_time);
-    out << ",\n      \"cep95_over_time_m\": ";
-    list(s.cep95_over_time);
-    out << ",\n      \"wrong_association_probability_over_time\": ";
-    list(s.wrong_over_time);
-    out << "}";
+  nlohmann::ordered_json strategies = nlohmann::ordered_json::object();
+  for (const StrategyResult& s : result.strategies) {
+    strategies[s.strategy] = {{"cep50_m", s.cep50_m},
+                              {"cep95_m", s.cep95_m},
+                              {"max_error_m", s.max_error_m},
+                              {"wrong_association_rate", s.wrong_association_rate},
+                              {"detections", s.detections},
+                              {"false_detections", s.false_detections},
+                              {"wrong_associations", s.wrong},
+                              {"false_detections_associated", s.false_associated},
+                              {"rejected", s.rejected},
+                              {"cep50_over_time_m", s.cep50_over_time},
+                              {"cep95_over_time_m", s.cep95_over_time},
+                              {"wrong_association_probability_over_time", s.wrong_over_time}};
   }
-  out << "\n  }\n}\n";
+  const nlohmann::ordered_json json = {
+      {"scenario", result.scenario}, {"runs", result.runs}, {"bin_s", result.bin_s}, {"strategies", strategies}};
+  out << json.dump(2) << "\n";
 }
 
 void write_montecarlo_summary(std::ostream& out, const MonteCarloResult& result) {

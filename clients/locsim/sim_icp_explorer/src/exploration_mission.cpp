@@ -1,5 +1,7 @@
 #include "locd/sim_icp_explorer/exploration_mission.hpp"
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -141,17 +143,20 @@ Summary summarize(const ExplorationMissionResult& r) {
 }
 }  // namespace
 
+// One JSON object on one line (nlohmann-json: strings escaped, a non-finite number written as null).
 void write_exploration_json(std::ostream& out, const ExplorationScenario& scenario, const ExplorationMissionResult& r) {
   const Summary s = summarize(r);
-  out << std::setprecision(6) << "{\"scenario\": \"" << scenario.name << "\", \"scans\": " << r.scans.size()
-      << ", \"scans_to_target\": " << r.scans_to_target << ", \"target_coverage\": " << scenario.target_coverage
-      << ", \"coverage\": " << r.coverage << ", \"done\": " << (r.done ? "true" : "false")
-      << ", \"path_length_m\": " << r.path_length << ", \"reference_voxels\": " << r.reference_voxels
-      << ", \"max_error_m\": " << s.max_error_m << ", \"mean_error_m\": " << s.mean_error_m
-      << ", \"max_error_deg\": " << s.max_error_deg << ", \"update_ms_p50\": " << s.update_p50
-      << ", \"update_ms_p99\": " << s.update_p99 << ", \"coverage_per_scan\": [";
-  for (size_t i = 0; i < r.scans.size(); ++i) out << (i ? ", " : "") << r.scans[i].coverage;
-  out << "]}\n";
+  std::vector<double> coverage_per_scan;
+  for (const auto& scan : r.scans) coverage_per_scan.push_back(scan.coverage);
+  const nlohmann::ordered_json json = {
+      {"scenario", scenario.name},          {"scans", r.scans.size()},
+      {"scans_to_target", r.scans_to_target}, {"target_coverage", scenario.target_coverage},
+      {"coverage", r.coverage},             {"done", r.done},
+      {"path_length_m", r.path_length},     {"reference_voxels", r.reference_voxels},
+      {"max_error_m", s.max_error_m},       {"mean_error_m", s.mean_error_m},
+      {"max_error_deg", s.max_error_deg},   {"update_ms_p50", s.update_p50},
+      {"update_ms_p99", s.update_p99},      {"coverage_per_scan", coverage_per_scan}};
+  out << json.dump() << "\n";
 }
 
 void write_exploration_summary(std::ostream& out, const ExplorationScenario& scenario,

@@ -17,11 +17,10 @@ double mahalanobis2(const Vector& v, const Matrix& S) {
   return w.squaredNorm();
 }
 
-// Regularized lower incomplete gamma P(a, x).
-double regularized_gamma_p(double a, double x);
-// Chi-square CDF with `dof` degrees of freedom.
+// Chi-square CDF with `dof` degrees of freedom (Boost.Math).
 double chi_square_cdf(double x, int dof);
-// Chi-square quantile: the x with chi_square_cdf(x, dof) = probability, 0 < probability < 1.
+// Chi-square quantile: the x with chi_square_cdf(x, dof) = probability, 0 < probability < 1
+// (Boost.Math); std::invalid_argument otherwise.
 double chi_square_quantile(double probability, int dof);
 
 // Gate on an innovation: passes when its squared Mahalanobis distance is below the chi-square

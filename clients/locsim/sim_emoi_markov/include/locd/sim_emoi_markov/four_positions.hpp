@@ -12,7 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "locd/emoi_markov/emoi_markov_localizer.hpp"
+#include "locd/emoi_markov/emoi_markov_filter.hpp"
+#include "locd/sdk/plugin.hpp"
 #include "locd/sim_emoi_markov/synthetic_dsm.hpp"
 #include "locd/sim_emoi_markov/terrain_robot.hpp"
 #include "locd/sim_emoi_markov/tilting_laser.hpp"

@@ -1,0 +1,111 @@
+#include "scenario_kinds.hpp"
+
+#include <iostream>
+
+#include "live_emoi_markov.hpp"
+#include "live_exploration.hpp"
+#include "locd/sim/offline_runner.hpp"
+#include "locd/sim/report.hpp"
+#include "locd/sim/scenario.hpp"
+#include "locd/sim_emoi_markov/four_positions.hpp"
+#include "locd/sim_feature_ekf/montecarlo.hpp"
+#include "locd/sim_icp_explorer/exploration_mission.hpp"
+
+namespace locd::sim {
+namespace {
+
+namespace rs = road_signs;
+
+// Where the progress and plot lines go: stderr when stdout carries the JSON.
+std::ostream& log_stream(const Command& c) { return c.json ? std::cerr : std::cout; }
+
+int road_signs_montecarlo(const Command& c, int runs) {
+  rs::MonteCarloOptions options;
+  options.scenario_file = c.scenario_file;
+  options.plugin_directories = c.plugin_directories;
+  options.seed = c.seed;
+  options.duration_s = c.duration_s;
+  options.runs = runs;
+  options.strategies = c.strategies;
+  const rs::MonteCarloResult result = rs::run_montecarlo(options);
+  if (c.json) {
+    rs::write_montecarlo_json(std::cout, result);
+  } else {
+    rs::write_montecarlo_summary(std::cout, result);
+  }
+  if (!c.plot_file.empty()) {
+    rs::plot_montecarlo(c.plot_file, result);
+    log_stream(c) << "plot: " << c.plot_file << "\n";
+  }
+  return 0;
+}
+
+int segment_world_run(const Command& c) {
+  const Scenario scenario = load_scenario(c.scenario_file);
+  const RunResult result = run_offline(scenario, OfflineRunOptions{c.plugin_directories, c.seed, c.duration_s});
+  if (c.json) {
+    write_json(std::cout, result);
+  } else {
+    write_summary(std::cout, result);
+  }
+  if (!c.plot_file.empty()) {
+    plot_run(c.plot_file, scenario.map, result);
+    log_stream(c) << "plot: " << c.plot_file << "\n";
+  }
+  return result.summary.updates > 0 ? 0 : 1;
+}
+
+int segment_world_live(const Command& c) {
+  LiveOptions live = c.live;
+  live.seed = c.seed;
+  live.duration_s = c.duration_s;
+  live.json = c.json;
+  live.plot_file = c.plot_file;
+  return run_live(load_scenario(c.scenario_file), live);
+}
+
+}  // namespace
+
+const std::vector<ScenarioKind>& scenario_kinds() {
+  static const std::vector<ScenarioKind> kinds = {
+      {"road_signs (feature_ekf landmarks: sensors.sign_detector)", rs::is_road_signs_scenario,
+       [](const Command& c) { return road_signs_montecarlo(c, 1); },  // one drive per strategy
+       {},
+       [](const Command& c) { return road_signs_montecarlo(c, c.runs); },
+       "the road-sign scenario runs offline only: locsim run or locsim montecarlo"},
+      {"emoi_four_positions (emoi_markov)", emoi::is_four_positions_scenario,
+       [](const Command& c) {
+         return emoi::locsim_run_four_positions(c.scenario_file, c.plugin_directories, c.seed, c.json, std::cout);
+       },
+       [](const Command& c) { return run_four_positions_live(c.scenario_file, c.live, c.seed, c.json); },
+       {},
+       "locsim montecarlo needs a road-sign scenario (sensors.sign_detector), e.g. config/scenarios/road_signs.yaml"},
+      {"icp_explorer_exploration (icp_explorer)", is_exploration_scenario,
+       [](const Command& c) {
+         return locsim_run_exploration(c.scenario_file, c.plugin_directories, c.seed, c.json, std::cout);
+       },
+       [](const Command& c) { return run_exploration_live(c.scenario_file, c.live, c.seed, c.json); },
+       {},
+       "locsim montecarlo needs a road-sign scenario (sensors.sign_detector), e.g. config/scenarios/road_signs.yaml"},
+      {"segment world (laser, odometry, ceiling camera)", [](const std::filesystem::path&) { return true; },
+       segment_world_run, segment_world_live, {},
+       "locsim montecarlo needs a road-sign scenario (sensors.sign_detector), e.g. config/scenarios/road_signs.yaml"},
+  };
+  return kinds;
+}
+
+const ScenarioKind& kind_of(const std::filesystem::path& scenario_file) {
+  for (const ScenarioKind& kind : scenario_kinds()) {
+    if (kind.matches(scenario_file)) return kind;
+  }
+  return scenario_kinds().back();
+}
+
+int run_command(const Command& command) {
+  const ScenarioKind& kind = kind_of(command.scenario_file);
+  const Runner& runner = command.mode == "run" ? kind.run : command.mode == "live" ? kind.live : kind.montecarlo;
+  if (!runner) throw UsageError(kind.not_offered);
+  return runner(command);
+}
+
+}  // namespace locd::sim

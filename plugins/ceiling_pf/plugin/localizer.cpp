@@ -1,0 +1,163 @@
+#include "localizer.hpp"
+
+#include <cmath>
+#include <opencv2/core.hpp>
+
+#include "locd/ceiling_pf/velocity_motion_model.hpp"
+#include "params.hpp"
+
+namespace locd::ceiling_pf {
+namespace {
+
+// A plugin pose is (x, y, z, roll, pitch, yaw); the filter holds (x, y, yaw).
+constexpr int kPlanarIndex[3] = {0, 1, 5};
+
+Eigen::Matrix3d diagonal_variance(const Eigen::Vector3d& stddev) { return stddev.cwiseAbs2().asDiagonal(); }
+
+}  // namespace
+
+void CeilingPfLocalizer::configure(const PluginContext& context, const Params& params) {
+  config_ = parse_config(params, context.limits, [&](const std::string& map) {
+    map_ = load_landmark_map(context.maps.resolve(map).string(), context.limits.max_map_cells);
+    return map_.ceiling_height;
+  });
+  camera_ = std::make_unique<CeilingCamera>(config_.camera, config_.mounting, *config_.ceiling_height);
+  detector_ = std::make_unique<CeilingDetector>(config_.detector);
+  ParticleFilterConfig filter = config_.filter;
+  filter.max_range = camera_->max_view_range() + config_.view_range_margin;
+  auto index = std::make_shared<const NearestLandmarkIndex>(map_.landmarks, filter.candidates, config_.index_cell_size,
+                                                            filter.max_range + config_.index_margin,
+                                                            context.limits.max_map_cells);
+  filter_ = std::make_unique<CeilingParticleFilter>(filter, index, VelocityMotionModel(config_.motion_noise));
+  if (config_.initial_pose) filter_->set_pose(*config_.initial_pose, diagonal_variance(config_.initial_stddev));
+  last_odometry_.reset();
+  rejected_ = 0;
+}
+
+void CeilingPfLocalizer::set_pose(const PoseEstimate& pose) {
+  const Pose2 mean = Pose2::from_isometry(pose.pose);
+  if (!std::isfinite(mean.x) || !std::isfinite(mean.y) || !std::isfinite(mean.theta)) {
+    throw InputError("initial pose: position and yaw must be finite");
+  }
+  Eigen::Matrix3d cov;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) cov(r, c) = pose.covariance(kPlanarIndex[r], kPlanarIndex[c]);
+  const Eigen::LLT<Eigen::Matrix3d> llt(cov);
+  if (!cov.allFinite() || llt.info() != Eigen::Success) cov = diagonal_variance(config_.initial_stddev);
+  filter_->set_pose(mean, cov);
+}
+
+UpdateResult CeilingPfLocalizer::update(const Measurement& measurement) {
+  try {
+    if (const auto* odometry = std::get_if<Odometry>(&measurement)) return on_odometry(*odometry);
+    if (const auto* image = std::get_if<Image>(&measurement)) return on_image(*image);
+    if (const auto* frame = std::get_if<LandmarkDetections>(&measurement)) return on_detections(*frame);
+    throw InputError("ceiling_pf consumes odometry, image and landmark detections only");
+  } catch (const InputError&) {
+    ++rejected_;
+    throw;
+  }
+}
+
+UpdateResult CeilingPfLocalizer::initial_outputs() const {
+  UpdateResult r;
+  std::vector<MapFeature> features;
+  for (size_t i = 0; i < map_.landmarks.size(); ++i) {
+    MapFeature f;
+    f.id = map_.id(i);
+    f.kind = "ceiling_landmark";
+    f.a = Eigen::Vector3d(map_.landmarks[i].x(), map_.landmarks[i].y(),
+                          camera_ ? camera_->lens_to_ceiling() + camera_->mounting().height : map_.ceiling_height);
+    f.b = f.a;
+    features.push_back(f);
+  }
+  r.landmark_map = std::move(features);
+  return r;
+}
+
+// Stamps arrive in order (the session sees to it); a repeated stamp predicts nothing.
+UpdateResult CeilingPfLocalizer::on_odometry(const Odometry& odom) {
+  const Pose2 pose = Pose2::from_isometry(odom.pose);
+  if (last_odometry_) {
+    const double dt = 1e-9 * static_cast<double>(odom.header.stamp_ns - last_odometry_stamp_);
+    filter_->predict(velocity_between(*last_odometry_, pose, dt));
+  }
+  last_odometry_ = pose;
+  last_odometry_stamp_ = odom.header.stamp_ns;
+  UpdateResult result;
+  result.estimate = make_estimate(odom.header);
+  return result;
+}
+
+UpdateResult CeilingPfLocalizer::on_image(const Image& image) {
+  if (image.channels != 1) {
+    throw InputError("image: encoding with " + std::to_string(image.channels) +
+                     " channels is not accepted; ceiling_pf expects mono8 (1 channel)");
+  }
+  const CameraIntrinsics& in = camera_->intrinsics();
+  if (image.width != in.width || image.height != in.height) {
+    throw InputError("image: size " + std::to_string(image.width) + " x " + std::to_string(image.height) +
+                     " does not match ceiling_pf.camera width x height = " + std::to_string(in.width) + " x " +
+                     std::to_string(in.height));
+  }
+  const cv::Mat mono(image.height, image.width, CV_8UC1, const_cast<uint8_t*>(image.data.data()));
+  std::vector<Detection> detections;
+  for (const Eigen::Vector2d& p : detector_->detect_points(mono, *camera_)) detections.push_back(Detection::from_point(p));
+  return correct(image.header, detections);
+}
+
+UpdateResult CeilingPfLocalizer::on_detections(const LandmarkDetections& frame) {
+  std::vector<Detection> detections;
+  for (const LandmarkDetection& d : frame.detections) {
+    if (!config_.detection_label.empty() && d.class_label != config_.detection_label) continue;
+    detections.push_back(Detection::from_point(d.position.head<2>()));
+  }
+  return correct(frame.header, detections);
+}
+
+UpdateResult CeilingPfLocalizer::correct(const Header& header, const std::vector<Detection>& detections) {
+  const CorrectionReport report = filter_->correct(detections);
+  UpdateResult result;
+  result.estimate = make_estimate(header);
+  Diagnostics& d = result.diagnostics;
+  d.values = {{"detections", static_cast<double>(report.detections)},
+              {"particles", static_cast<double>(filter_->particles().size())},
+              {"effective_sample_size", report.effective_sample_size},
+              {"resampled", report.resampled ? 1.0 : 0.0},
+              {"injected", static_cast<double>(report.injected)},
+              {"injection_probability", report.injection_probability},
+              {"likelihood_slow", filter_->slow_average()},
+              {"likelihood_fast", filter_->fast_average()},
+              {"rejected_inputs", static_cast<double>(rejected_)}};
+  if (const auto e = filter_->estimate()) d.values.push_back({"cluster_mass", e->cluster_mass});
+  for (size_t i = 0; i < report.associations.size(); ++i) {
+    const Association& a = report.associations[i];
+    d.associations.push_back({static_cast<uint32_t>(i), a.landmark >= 0 ? map_.id(static_cast<size_t>(a.landmark)) : "",
+                              static_cast<uint32_t>(a.candidates), a.normalized_error2});
+  }
+  const auto& particles = filter_->particles();
+  const size_t shown = config_.diagnostics_particles;
+  if (shown > 0 && !particles.empty()) {
+    const size_t stride = (particles.size() + shown - 1) / shown;
+    for (size_t i = 0; i < particles.size(); i += stride) {
+      const Particle& p = particles[i];
+      d.particles.push_back({p.pose.x, p.pose.y, p.pose.theta, p.weight * static_cast<double>(stride)});
+    }
+  }
+  return result;
+}
+
+std::optional<PoseEstimate> CeilingPfLocalizer::make_estimate(const Header& header) const {
+  const auto e = filter_->estimate();
+  if (!e) return std::nullopt;
+  PoseEstimate out;
+  out.header.stamp_ns = header.stamp_ns;
+  out.header.frame_id = map_.frame_id;
+  out.pose = e->pose.to_isometry();
+  out.covariance.setZero();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) out.covariance(kPlanarIndex[r], kPlanarIndex[c]) = e->covariance(r, c);
+  return out;
+}
+
+}  // namespace locd::ceiling_pf

@@ -1,0 +1,62 @@
+// The paper's localizer composed from its pieces: odometry predicts (eq. 4-6), a scan is turned
+// into features, associated with the map (eq. 8-12) and fused by sequential EKF updates
+// (eq. 13-14). No I/O here: the plugin copies parameters into FeatureEkfConfig (config.hpp).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "locd/feature_ekf/extended_kalman_filter.hpp"
+#include "locd/feature_ekf/laser_feature_extractor.hpp"
+#include "locd/feature_ekf/nearest_neighbor_association.hpp"
+#include "locd/feature_ekf/odometry_motion_model.hpp"
+#include "locd/sdk/feature_map.hpp"
+#include "locd/sdk/geometry.hpp"
+
+namespace locd::feature_ekf {
+
+struct ScanUpdateReport {
+  ExtractedFeatures features;
+  std::vector<Association> associations;  // one per extracted feature
+  size_t matched[3] = {0, 0, 0};          // applied updates per FeatureKind
+  double mean_nis = 0.0;                  // mean normalized innovation squared of applied updates
+};
+
+class FeatureEkfFilter {
+ public:
+  using Filter = ExtendedKalmanFilter<3>;
+
+  FeatureEkfFilter(FeatureEkfConfig config, FeatureMap2D map);
+
+  void set_pose(const Eigen::Vector3d& pose, const Eigen::Matrix3d& covariance);
+
+  // Odometry pose (odom frame) at a stamp; from the second message on, predicts with the control
+  // between the two. Returns true when it predicted; a stamp not after the previous one (or a gap
+  // above max_odometry_gap) only restarts the odometry.
+  bool apply_odometry(const Pose2& odometry_pose, int64_t stamp_ns);
+
+  // Extraction, association and update.
+  ScanUpdateReport update(const LaserScan& scan);
+  // Association and update of already extracted features.
+  ScanUpdateReport update(ExtractedFeatures features);
+
+  Eigen::Vector3d pose() const { return filter_.state(); }
+  Eigen::Matrix3d covariance() const { return filter_.covariance(); }
+  const FeatureMap2D& map() const { return map_; }
+  const FeatureEkfConfig& config() const { return config_; }
+  const LaserFeatureExtractor& extractor() const { return extractor_; }
+
+ private:
+  FeatureEkfConfig config_;
+  FeatureMap2D map_;
+  OdometryMotionModel motion_model_;
+  LaserFeatureExtractor extractor_;
+  NearestNeighborAssociation association_;
+  Filter filter_;
+  std::optional<Pose2> last_odometry_pose_;
+  int64_t last_odometry_stamp_ns_ = 0;
+};
+
+}  // namespace locd::feature_ekf

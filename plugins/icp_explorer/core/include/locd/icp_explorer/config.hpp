@@ -1,0 +1,106 @@
+// Every setting of icp_explorer with its default: the one place the defaults live. The plugin
+// (plugin/params.cpp, config/plugins/icp_explorer.yaml) reads a robot's parameters into
+// IcpExplorerConfig; tests and benchmarks build one directly.
+#pragma once
+
+#include <Eigen/Core>
+#include <cmath>
+#include <cstddef>
+
+namespace locd::icp_explorer {
+
+// The odometry's error per leg, bounding where a data point can lie (correspondence_rejection.hpp).
+struct OdometryErrorBound {
+  double forward = 0.5;                // m per leg, along the predicted heading
+  double lateral = 0.5;                // m per leg
+  double vertical = 0.05;              // m
+  double yaw = 10.0 * M_PI / 180.0;    // rad per leg
+  double tilt = 1.0 * M_PI / 180.0;    // rad, roll / pitch
+  double margin = 0.15;                // m: sensor noise, voxel size, model sampling
+};
+
+// The rejection rules (a)-(d) of section 2.1.
+struct RejectionRules {
+  bool intensity = true;        // (a)
+  bool overlap = true;          // (b)
+  bool error_length = true;     // (c)
+  bool error_direction = true;  // (d)
+  double intensity_threshold = 0.25;
+  double max_range = 20.0;      // m, the scanner's
+};
+
+enum class IcpMetric { kPointToPlane, kPointToPoint };
+
+// Gauss-Newton registration (modified_icp.hpp).
+struct IcpSettings {
+  IcpMetric metric = IcpMetric::kPointToPlane;
+  int max_iterations = 40;
+  double max_correspondence_distance = 3.0;  // m, always applied (the classic ICP gate)
+  double kernel_scale = 0.05;                // m, final Geman-McClure scale
+  double initial_kernel_scale = 0.8;         // m, first iterations' scale
+  int coarse_stride = 4;                     // while the scale is above 4 x kernel_scale, every n-th data point
+  double convergence_translation = 1e-4;     // m, stop when an update moves less ...
+  double convergence_rotation = 1e-4;        // rad, ... and turns less than this
+};
+
+// The layered hexahedral map the planner works on (layered_hexahedral_map.hpp).
+struct LayeredMapSettings {
+  Eigen::Vector2d origin{-10.0, -10.0};  // m, map-frame corner of column (0, 0)
+  Eigen::Vector2d size{20.0, 20.0};      // m
+  double cell_size = 0.25;               // m
+  double layer_height = 0.4;             // m
+  double z_min = 0.1;                    // m, above the floor
+  double z_max = 2.5;                    // m, below the ceiling
+  double occupied_probability = 0.5;
+  double points_for_detection = 4.0;
+  double fill = 0.25;                    // expected share of a facing cube's returns
+  double azimuth_step = 0.5 * M_PI / 180.0;    // rad, the scanner's resolution
+  double elevation_step = 0.65 * M_PI / 180.0;
+};
+
+// The next-best-view utility (next_best_view.hpp).
+struct ExplorationSettings {
+  double beta = 1.0;
+  double possibly_movable_weight = 0.3;
+  double robot_radius = 0.3;         // m
+  double robot_height = 1.2;         // m
+  double sensor_height = 0.8;        // m, scanner above the floor
+  double elevation_min = -45.0 * M_PI / 180.0;
+  double elevation_max = 45.0 * M_PI / 180.0;
+  double max_range = 20.0;           // m
+  int rays = 120;
+  int candidate_stride = 2;          // evaluate every n-th column in x and y
+  double reliable_distance = 5.0;    // m
+  double reliable_falloff = 4.0;     // m
+  double overlap_distance = 1.0;     // m
+  double direction_penalty = 0.5;
+  double memory_radius = 6.0;        // m
+  double done_threshold = 0.5;
+};
+
+enum class MapFileFormat { kPcd, kPly };
+
+// The registered map on the map_cloud topic and in saved files.
+struct MapOutputSettings {
+  int publish_every_scans = 1;        // 0 = never publish the map
+  double publish_voxel_size = 0.2;    // m
+  MapFileFormat save_format = MapFileFormat::kPcd;
+};
+
+struct IcpExplorerConfig {
+  size_t max_points = 200'000;      // per cloud; larger clouds are refused
+  double scan_voxel_size = 0.3;     // m, data points for registration
+  double map_voxel_size = 0.1;      // m, the model
+  int normal_neighbours = 10;
+  bool carve_free_space = true;     // drop once-seen voxels later scans see through (VoxelMap::carve)
+  int carve_min_rays = 2;
+  IcpSettings icp;
+  RejectionRules rejection;
+  OdometryErrorBound odometry_bound;
+  bool exploration = true;
+  LayeredMapSettings layered_map;
+  ExplorationSettings planner;
+  MapOutputSettings map_output;
+};
+
+}  // namespace locd::icp_explorer

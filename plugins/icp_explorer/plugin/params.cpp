@@ -1,0 +1,115 @@
+#include "params.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+namespace locd::icp_explorer {
+
+namespace {
+constexpr double kDegree = M_PI / 180.0;
+}  // namespace
+
+IcpExplorerConfig parse_config(const Params& p, const Limits& limits) {
+  p.expect_only({"max_points", "scan_voxel_size", "map_voxel_size", "normal_neighbours", "carve_free_space",
+                 "carve_min_rays", "icp", "rejection", "odometry_bound", "exploration", "map_output"});
+  IcpExplorerConfig c;
+  c.max_points = static_cast<size_t>(p.integer("max_points", static_cast<long>(std::min(c.max_points, limits.max_cloud_points)),
+                                               1, static_cast<long>(limits.max_cloud_points)));
+  c.scan_voxel_size = p.number("scan_voxel_size", c.scan_voxel_size, Range::closed(0.01, 5.0));
+  c.map_voxel_size = p.number("map_voxel_size", c.map_voxel_size, Range::closed(0.01, 2.0));
+  c.normal_neighbours = static_cast<int>(p.integer("normal_neighbours", c.normal_neighbours, 3, 64));
+  c.carve_free_space = p.flag("carve_free_space", c.carve_free_space);
+  c.carve_min_rays = static_cast<int>(p.integer("carve_min_rays", c.carve_min_rays, 1, 1000));
+
+  const Params icp = p.child("icp");
+  icp.expect_only({"metric", "max_iterations", "max_correspondence_distance", "kernel_scale", "initial_kernel_scale",
+                   "coarse_stride", "convergence_translation", "convergence_rotation"});
+  c.icp.metric = icp.text("metric", "point_to_plane", {"point_to_plane", "point_to_point"}) == "point_to_plane"
+                     ? IcpMetric::kPointToPlane
+                     : IcpMetric::kPointToPoint;
+  c.icp.max_iterations = static_cast<int>(icp.integer("max_iterations", c.icp.max_iterations, 1, 500));
+  c.icp.max_correspondence_distance =
+      icp.number("max_correspondence_distance", c.icp.max_correspondence_distance, Range{0.0, 50.0, true, false});
+  c.icp.kernel_scale = icp.number("kernel_scale", c.icp.kernel_scale, Range{0.0, 10.0, true, false});
+  c.icp.initial_kernel_scale = icp.number("initial_kernel_scale", c.icp.initial_kernel_scale, Range{0.0, 10.0, true, false});
+  c.icp.coarse_stride = static_cast<int>(icp.integer("coarse_stride", c.icp.coarse_stride, 1, 64));
+  c.icp.convergence_translation = icp.number("convergence_translation", c.icp.convergence_translation, Range::open(0.0, 1.0));
+  c.icp.convergence_rotation = icp.number("convergence_rotation", c.icp.convergence_rotation, Range::open(0.0, 1.0));
+
+  const Params rules = p.child("rejection");
+  rules.expect_only({"intensity", "overlap", "error_length", "error_direction", "intensity_threshold", "max_range"});
+  c.rejection.intensity = rules.flag("intensity", c.rejection.intensity);
+  c.rejection.overlap = rules.flag("overlap", c.rejection.overlap);
+  c.rejection.error_length = rules.flag("error_length", c.rejection.error_length);
+  c.rejection.error_direction = rules.flag("error_direction", c.rejection.error_direction);
+  c.rejection.intensity_threshold =
+      rules.number("intensity_threshold", c.rejection.intensity_threshold, Range{0.0, 1.0, true, false});
+  c.rejection.max_range = rules.number("max_range", c.rejection.max_range, Range{0.0, 500.0, true, false});
+
+  const Params bound = p.child("odometry_bound");
+  bound.expect_only({"forward", "lateral", "vertical", "yaw_deg", "tilt_deg", "margin"});
+  c.odometry_bound.forward = bound.number("forward", c.odometry_bound.forward, Range::closed(0.0, 20.0));
+  c.odometry_bound.lateral = bound.number("lateral", c.odometry_bound.lateral, Range::closed(0.0, 20.0));
+  c.odometry_bound.vertical = bound.number("vertical", c.odometry_bound.vertical, Range::closed(0.0, 5.0));
+  c.odometry_bound.yaw = bound.number("yaw_deg", c.odometry_bound.yaw / kDegree, Range::closed(0.0, 180.0)) * kDegree;
+  c.odometry_bound.tilt = bound.number("tilt_deg", c.odometry_bound.tilt / kDegree, Range::closed(0.0, 45.0)) * kDegree;
+  c.odometry_bound.margin = bound.number("margin", c.odometry_bound.margin, Range::closed(0.0, 5.0));
+
+  const Params e = p.child("exploration");
+  e.expect_only({"enabled", "origin", "size", "cell_size", "layer_height", "z_min", "z_max", "occupied_probability",
+                 "points_for_detection", "fill", "azimuth_step_deg", "elevation_step_deg", "elevation_min_deg",
+                 "elevation_max_deg", "sensor_height", "beta", "possibly_movable_weight", "robot_radius",
+                 "robot_height", "rays", "candidate_stride", "reliable_distance", "reliable_falloff",
+                 "overlap_distance", "direction_penalty", "memory_radius", "done_threshold"});
+  c.exploration = e.flag("enabled", c.exploration);
+  LayeredMapSettings& m = c.layered_map;
+  const auto origin = e.numbers("origin", {m.origin.x(), m.origin.y()}, 2, Range::closed(-1e5, 1e5));
+  const auto size = e.numbers("size", {m.size.x(), m.size.y()}, 2, Range{0.0, 1e4, true, false});
+  m.origin = {origin[0], origin[1]};
+  m.size = {size[0], size[1]};
+  m.cell_size = e.number("cell_size", m.cell_size, Range::closed(0.05, 5.0));
+  m.layer_height = e.number("layer_height", m.layer_height, Range::closed(0.05, 5.0));
+  m.z_min = e.number("z_min", m.z_min, Range::closed(-10.0, 50.0));
+  m.z_max = e.number("z_max", m.z_max, Range::closed(-10.0, 50.0));
+  if (m.z_max < m.z_min + m.layer_height)
+    e.fail("z_max", "must leave room for one layer above z_min (" + std::to_string(m.z_min) + " + layer_height)");
+  const double cells = std::ceil(m.size.x() / m.cell_size) * std::ceil(m.size.y() / m.cell_size) *
+                       std::floor((m.z_max - m.z_min) / m.layer_height);
+  if (c.exploration && cells > static_cast<double>(limits.max_map_cells))
+    e.fail("size", "gives " + std::to_string(static_cast<long long>(cells)) + " cubes; the server allows " +
+                       std::to_string(limits.max_map_cells) + " map cells");
+  m.occupied_probability = e.number("occupied_probability", m.occupied_probability, Range::open(0.0, 1.0));
+  m.points_for_detection = e.number("points_for_detection", m.points_for_detection, Range::closed(1.0, 1000.0));
+  m.fill = e.number("fill", m.fill, Range{0.0, 1.0, true, false});
+  m.azimuth_step = e.number("azimuth_step_deg", m.azimuth_step / kDegree, Range{0.0, 45.0, true, false}) * kDegree;
+  m.elevation_step = e.number("elevation_step_deg", m.elevation_step / kDegree, Range{0.0, 45.0, true, false}) * kDegree;
+  ExplorationSettings& x = c.planner;
+  x.elevation_min = e.number("elevation_min_deg", x.elevation_min / kDegree, Range::closed(-90.0, 90.0)) * kDegree;
+  x.elevation_max = e.number("elevation_max_deg", x.elevation_max / kDegree, Range::closed(-90.0, 90.0)) * kDegree;
+  if (x.elevation_max <= x.elevation_min) e.fail("elevation_max_deg", "must exceed elevation_min_deg");
+  x.sensor_height = e.number("sensor_height", x.sensor_height, Range::closed(0.0, 10.0));
+  x.max_range = c.rejection.max_range;
+  x.beta = e.number("beta", x.beta, Range::closed(0.0, 100.0));
+  x.possibly_movable_weight = e.number("possibly_movable_weight", x.possibly_movable_weight, Range::closed(0.0, 1.0));
+  x.robot_radius = e.number("robot_radius", x.robot_radius, Range::closed(0.0, 5.0));
+  x.robot_height = e.number("robot_height", x.robot_height, Range{0.0, 10.0, true, false});
+  x.rays = static_cast<int>(e.integer("rays", x.rays, 8, 3600));
+  x.candidate_stride = static_cast<int>(e.integer("candidate_stride", x.candidate_stride, 1, 100));
+  x.reliable_distance = e.number("reliable_distance", x.reliable_distance, Range::closed(0.0, 1000.0));
+  x.reliable_falloff = e.number("reliable_falloff", x.reliable_falloff, Range{0.0, 1000.0, true, false});
+  x.overlap_distance = e.number("overlap_distance", x.overlap_distance, Range{0.0, 100.0, true, false});
+  x.direction_penalty = e.number("direction_penalty", x.direction_penalty, Range{0.0, 1.0, false, true});
+  x.memory_radius = e.number("memory_radius", x.memory_radius, Range::closed(0.0, 1000.0));
+  x.done_threshold = e.number("done_threshold", x.done_threshold, Range::non_negative());
+
+  MapOutputSettings& map_output = c.map_output;
+  const Params out = p.child("map_output");
+  out.expect_only({"publish_every_scans", "publish_voxel_size", "save_format"});
+  map_output.publish_every_scans = static_cast<int>(out.integer("publish_every_scans", map_output.publish_every_scans, 0, 100000));
+  map_output.publish_voxel_size = out.number("publish_voxel_size", map_output.publish_voxel_size, Range::closed(0.01, 10.0));
+  map_output.save_format = out.text("save_format", "pcd", {"pcd", "ply"}) == "pcd" ? MapFileFormat::kPcd : MapFileFormat::kPly;
+  return c;
+}
+
+}  // namespace locd::icp_explorer

@@ -1,0 +1,96 @@
+#include "locd/sdk/validate.hpp"
+
+#include <cmath>
+#include <string>
+
+#include "locd/sdk/errors.hpp"
+
+namespace locd {
+namespace {
+
+bool finite(const Eigen::Isometry3d& T) { return T.matrix().allFinite(); }
+
+// Below this norm a quaternion has no direction to normalise to.
+constexpr double kMinQuaternionNorm = 1e-6;
+
+}  // namespace
+
+void check_limit(const char* topic, const char* what, size_t count, size_t limit, const char* key) {
+  if (count > limit) {
+    throw InputError(std::string(topic) + ": " + std::to_string(count) + " " + what + " exceed the limit " + key +
+                     " = " + std::to_string(limit));
+  }
+}
+
+void validate(const Odometry& odometry) {
+  if (!finite(odometry.pose)) throw InputError("odometry: pose has a NaN or infinite component");
+  if (!odometry.linear_velocity.allFinite() || !odometry.angular_velocity.allFinite()) {
+    throw InputError("odometry: velocity is NaN or infinite");
+  }
+}
+
+void validate(const Imu& imu) {
+  if (!imu.orientation.coeffs().allFinite()) throw InputError("imu: orientation (attitude) is NaN or infinite");
+  if (imu.orientation.norm() < kMinQuaternionNorm) throw InputError("imu: orientation is a zero quaternion");
+  if (!imu.angular_velocity.allFinite() || !imu.linear_acceleration.allFinite()) {
+    throw InputError("imu: angular velocity or acceleration is NaN or infinite");
+  }
+}
+
+void validate(const LaserScan& scan) {
+  if (scan.ranges.empty()) throw InputError("scan: empty (0 beams)");
+  if (!scan.intensities.empty() && scan.intensities.size() != scan.ranges.size()) {
+    throw InputError("scan: " + std::to_string(scan.intensities.size()) + " intensities for " +
+                     std::to_string(scan.ranges.size()) + " ranges; send none or one per range");
+  }
+  if (!std::isfinite(scan.angle_min) || !std::isfinite(scan.angle_increment) || scan.angle_increment == 0.0f ||
+      !std::isfinite(scan.range_min) || !std::isfinite(scan.range_max) || !(scan.range_max > scan.range_min)) {
+    throw InputError("scan: angle_min, angle_increment (non-zero), range_min < range_max must be finite");
+  }
+  if (!finite(scan.sensor_pose)) throw InputError("scan sensor_pose: pose has a NaN or infinite component");
+  for (size_t i = 0; i < scan.ranges.size(); ++i) {
+    if (scan.valid_return(i)) return;
+  }
+  throw InputError("scan: no beam has a finite range within [range_min, range_max]");
+}
+
+void validate(const PointCloud& cloud) {
+  if (cloud.points.empty()) throw InputError("cloud: empty (0 points)");
+  if (!cloud.intensity.empty() && cloud.intensity.size() != cloud.points.size()) {
+    throw InputError("cloud: " + std::to_string(cloud.intensity.size()) + " intensities for " +
+                     std::to_string(cloud.points.size()) + " points; send none or one per point");
+  }
+  if (!finite(cloud.sensor_pose)) throw InputError("cloud sensor_pose: pose has a NaN or infinite component");
+  for (const Eigen::Vector3f& p : cloud.points) {
+    if (p.allFinite()) return;  // NaN points are "no return"; one real point makes a cloud
+  }
+  throw InputError("cloud: every point is NaN or infinite");
+}
+
+void validate(const Image& image) {
+  if (image.width <= 0 || image.height <= 0) throw InputError("image: width and height must be positive");
+  if (image.channels != 1 && image.channels != 3) {
+    throw InputError("image: " + std::to_string(image.channels) + " channels; allowed: 1 (mono8), 3 (bgr8)");
+  }
+  const size_t expected = static_cast<size_t>(image.width) * static_cast<size_t>(image.height) * image.channels;
+  if (image.data.size() != expected) {
+    throw InputError("image: " + std::to_string(image.data.size()) +
+                     " bytes of data, expected width * height * channels = " + std::to_string(expected));
+  }
+}
+
+void validate(const LandmarkDetections& frame) {
+  for (size_t i = 0; i < frame.detections.size(); ++i) {
+    const LandmarkDetection& d = frame.detections[i];
+    if (!d.position.allFinite()) {
+      throw InputError("detections: detection " + std::to_string(i) + " has a NaN or infinite position");
+    }
+    if (!d.covariance.allFinite()) throw InputError("detections: detection " + std::to_string(i) + " has a NaN covariance");
+  }
+}
+
+void validate(const Measurement& measurement) {
+  std::visit([](const auto& m) { validate(m); }, measurement);
+}
+
+}  // namespace locd
