@@ -13,6 +13,15 @@ bool finite(const Eigen::Isometry3d& T) { return T.matrix().allFinite(); }
 // Below this norm a quaternion has no direction to normalise to.
 constexpr double kMinQuaternionNorm = 1e-6;
 
+// Intensities come one per range (point) or not at all.
+void check_intensities(const char* topic, size_t intensities, size_t items, const char* items_name,
+                       const char* item_name) {
+  if (intensities != 0 && intensities != items) {
+    throw InputError(std::string(topic) + ": " + std::to_string(intensities) + " intensities for " +
+                     std::to_string(items) + " " + items_name + "; send none or one per " + item_name);
+  }
+}
+
 }  // namespace
 
 void check_limit(const char* topic, const char* what, size_t count, size_t limit, const char* key) {
@@ -39,10 +48,7 @@ void validate(const Imu& imu) {
 
 void validate(const LaserScan& scan) {
   if (scan.ranges.empty()) throw InputError("scan: empty (0 beams)");
-  if (!scan.intensities.empty() && scan.intensities.size() != scan.ranges.size()) {
-    throw InputError("scan: " + std::to_string(scan.intensities.size()) + " intensities for " +
-                     std::to_string(scan.ranges.size()) + " ranges; send none or one per range");
-  }
+  check_intensities("scan", scan.intensities.size(), scan.ranges.size(), "ranges", "range");
   if (!std::isfinite(scan.angle_min) || !std::isfinite(scan.angle_increment) || scan.angle_increment == 0.0f ||
       !std::isfinite(scan.range_min) || !std::isfinite(scan.range_max) || !(scan.range_max > scan.range_min)) {
     throw InputError("scan: angle_min, angle_increment (non-zero), range_min < range_max must be finite");
@@ -56,10 +62,7 @@ void validate(const LaserScan& scan) {
 
 void validate(const PointCloud& cloud) {
   if (cloud.points.empty()) throw InputError("cloud: empty (0 points)");
-  if (!cloud.intensity.empty() && cloud.intensity.size() != cloud.points.size()) {
-    throw InputError("cloud: " + std::to_string(cloud.intensity.size()) + " intensities for " +
-                     std::to_string(cloud.points.size()) + " points; send none or one per point");
-  }
+  check_intensities("cloud", cloud.intensity.size(), cloud.points.size(), "points", "point");
   if (!finite(cloud.sensor_pose)) throw InputError("cloud sensor_pose: pose has a NaN or infinite component");
   for (const Eigen::Vector3f& p : cloud.points) {
     if (p.allFinite()) return;  // NaN points are "no return"; one real point makes a cloud

@@ -149,18 +149,20 @@ void EmoiMarkovFilter::add_odometry(const Odometry& odometry) {
 void EmoiMarkovFilter::add_imu(const Imu& imu) { imu_orientation_ = imu.orientation.normalized(); }
 
 std::optional<FilterUpdateReport> EmoiMarkovFilter::add_scan(const LaserScan& scan) {
-  if (!last_odometry_) throw InputError("scan before any odometry: the local elevation map needs the robot's pose");
-  local_map_->follow(last_odometry_->pose.translation().head<2>());
-  const InsertStatistics stats = local_map_->insert_scan(scan, base_in_odom(), travelled_m_);
-  rejected_points_ += stats.invalid;
-  return after_insert();
+  return insert("scan", [&](const Eigen::Isometry3d& base) { return local_map_->insert_scan(scan, base, travelled_m_); });
 }
 
 std::optional<FilterUpdateReport> EmoiMarkovFilter::add_cloud(const PointCloud& cloud) {
-  if (!last_odometry_) throw InputError("cloud before any odometry: the local elevation map needs the robot's pose");
+  return insert("cloud", [&](const Eigen::Isometry3d& base) { return local_map_->insert_cloud(cloud, base, travelled_m_); });
+}
+
+std::optional<FilterUpdateReport> EmoiMarkovFilter::insert(
+    const char* what, const std::function<InsertStatistics(const Eigen::Isometry3d& base_in_odom)>& into_local_map) {
+  if (!last_odometry_) {
+    throw InputError(std::string(what) + " before any odometry: the local elevation map needs the robot's pose");
+  }
   local_map_->follow(last_odometry_->pose.translation().head<2>());
-  const InsertStatistics stats = local_map_->insert_cloud(cloud, base_in_odom(), travelled_m_);
-  rejected_points_ += stats.invalid;
+  rejected_points_ += into_local_map(base_in_odom()).invalid;
   return after_insert();
 }
 

@@ -142,6 +142,10 @@ DirectSumTerms MaskedEmoiMatcher::direct_sum_terms(const cv::Mat_<float>& patch,
   }
   std::stable_sort(sorted.begin(), sorted.end(), [](const Term& a, const Term& b) { return a.bucket < b.bucket; });
   DirectSumTerms terms;
+  for (auto* column : {&terms.row_offset, &terms.column_offset}) column->reserve(sorted.size());
+  terms.linear.reserve(sorted.size());
+  terms.r2_m.reserve(sorted.size());
+  terms.robot_value.reserve(sorted.size());
   terms.bucket_end.assign(radii, 0);
   terms.bucket_moment.assign(radii, 0.0f);
   terms.bucket_count.assign(radii, 0.0f);

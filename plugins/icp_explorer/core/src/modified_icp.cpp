@@ -52,8 +52,9 @@ namespace {
 // While the kernel is above this multiple of its final scale the registration is coarse: only
 // every coarse_stride-th data point is used.
 constexpr double kCoarseKernelMultiple = 4.0;
-// The pose has settled at the current kernel scale when a step moves the scan's points by less
-// than this fraction of the scale (translation, and rotation times the scan's lever arm).
+// The pose has settled at the current kernel scale when a step moves no point of the scan by more
+// than this fraction of the scale (its translation, and its rotation times the farthest point's
+// distance).
 constexpr double kSettledFraction = 0.1;
 // Each time the pose settles the kernel scale shrinks by this factor, down to kernel_scale.
 constexpr double kKernelShrink = 0.5;
@@ -132,12 +133,12 @@ void add_point_to_point(const Eigen::Vector3d& x, const Eigen::Vector3d& q, doub
   eq.weight_sum += w;
 }
 
-// RMS distance of the scan's points from the base origin: the lever arm that turns a rotation
-// (rad) into the displacement (m) it gives the scan.
+// Distance of the scan's farthest point from the base origin: the lever arm that turns a rotation
+// (rad) into the largest displacement (m) it gives a point of the scan.
 double lever_arm(const ScanPoints& scan) {
-  double sum = 0.0;
-  for (const Eigen::Vector3d& p : scan.points) sum += p.squaredNorm();
-  return std::sqrt(sum / static_cast<double>(scan.points.size()));
+  double farthest2 = 0.0;
+  for (const Eigen::Vector3d& p : scan.points) farthest2 = std::max(farthest2, p.squaredNorm());
+  return std::sqrt(farthest2);
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 // applies the sensor update. No Localizer and no parameters here: plugin/ wraps it.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -76,6 +77,9 @@ class EmoiMarkovFilter {
     cv::Rect window;
     float outside = 0.0f;
   };
+  // Inserts into the local map (after the checks and the map's move), then after_insert.
+  std::optional<FilterUpdateReport> insert(
+      const char* what, const std::function<InsertStatistics(const Eigen::Isometry3d& base_in_odom)>& into_local_map);
   std::optional<FilterUpdateReport> after_insert();
   // Table 1, perception with the masked model. With distortion hypotheses and a concentrated
   // prior, the sparse model: L_mix on the cells holding the prior's mass, one value elsewhere, no
