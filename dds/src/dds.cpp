@@ -51,3 +51,48 @@ std::string config_uri() {
 }
 
 }  // namespace locd::dds
+
+namespace locd::dds {
+namespace {
+
+std::unique_ptr<dds_qos_t, QosDeleter> partition_qos(const Partitions& partitions) {
+  std::unique_ptr<dds_qos_t, QosDeleter> qos(dds_create_qos());
+  std::vector<const char*> names;
+  names.reserve(partitions.size());
+  for (const auto& p : partitions) names.push_back(p.c_str());
+  dds_qset_partition(qos.get(), static_cast<uint32_t>(names.size()), names.data());
+  return qos;
+}
+
+}  // namespace
+
+Entity publisher_for(const Participant& p, const Partitions& partitions) {
+  if (partitions.empty()) return Entity();
+  auto qos = partition_qos(partitions);
+  return Entity(check(dds_create_publisher(p.handle(), qos.get(), nullptr), "create publisher"));
+}
+
+Entity subscriber_for(const Participant& p, const Partitions& partitions) {
+  if (partitions.empty()) return Entity();
+  auto qos = partition_qos(partitions);
+  return Entity(check(dds_create_subscriber(p.handle(), qos.get(), nullptr), "create subscriber"));
+}
+
+Partitions writer_partitions(dds_entity_t reader, dds_instance_handle_t publication) {
+  Partitions out;
+  dds_builtintopic_endpoint_t* endpoint = dds_get_matched_publication_data(reader, publication);
+  if (!endpoint) return out;
+  uint32_t n = 0;
+  char** names = nullptr;
+  if (endpoint->qos && dds_qget_partition(endpoint->qos, &n, &names)) {
+    for (uint32_t i = 0; i < n; ++i) {
+      out.emplace_back(names[i]);
+      dds_free(names[i]);
+    }
+    dds_free(names);
+  }
+  dds_builtintopic_free_endpoint(endpoint);
+  return out;
+}
+
+}  // namespace locd::dds

@@ -7,6 +7,8 @@
 
 #include "locd/dds/convert.hpp"
 #include "locd/dds/topics.hpp"
+#include "locd/sdk/robot_id.hpp"
+#include "locd/sdk/text.hpp"
 #include "locd/server/server.hpp"
 
 namespace locd::server {
@@ -42,6 +44,38 @@ auto convert(const Wire& m, const Limits& limits) -> decltype(dds::from_wire(m, 
 
 }  // namespace
 
+// One robot's output writers, in its partition robot.<robot_id>. Pose, diagnostics and status are
+// made with it; maps, grids and goals when the robot's plugin first publishes one.
+struct DdsBridge::RobotWriters {
+  template <typename T>
+  struct Lazy {
+    const dds::Writer<T>& get(std::mutex& mutex, const dds::Participant& p, const char* topic,
+                              const dds::Partitions& partitions) {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (!writer) writer = std::make_unique<dds::Writer<T>>(p, topic, dds::QosProfile::kState, 8, partitions);
+      return *writer;
+    }
+    std::unique_ptr<dds::Writer<T>> writer;
+  };
+
+  RobotWriters(const dds::Participant& p, const std::string& robot_id)
+      : partitions{topics::robot_partition(robot_id)},
+        pose(p, topics::kPose, dds::QosProfile::kPose, 8, partitions),
+        diagnostics(p, topics::kDiagnostics, dds::QosProfile::kSensor, 8, partitions),
+        status(p, topics::kSessionStatus, dds::QosProfile::kState, 8, partitions) {}
+
+  dds::Partitions partitions;
+  dds::Writer<locd_msg_PoseEstimate> pose;
+  dds::Writer<locd_msg_Diagnostics> diagnostics;
+  dds::Writer<locd_msg_SessionStatus> status;
+  std::mutex mutex;  // guards the lazy writers' creation
+  Lazy<locd_msg_GridMap> grid;
+  Lazy<locd_msg_PointCloudMap> map_cloud;
+  Lazy<locd_msg_LandmarkMap> landmark_map;
+  Lazy<locd_msg_ExplorationGoal> exploration_goal;
+  uint64_t last_use = 0;  // under DdsBridge::writers_mutex_
+};
+
 struct DdsBridge::Readers {
   dds::Reader<locd_msg_Odometry> odometry;
   dds::Reader<locd_msg_Imu> imu;
@@ -54,26 +88,76 @@ struct DdsBridge::Readers {
   dds::Reader<locd_msg_MapSaveRequest> map_save_request;
 };
 
-DdsBridge::DdsBridge(int domain_id, std::string server_id, const Limits& limits, Logger& logger)
-    : server_id_(std::move(server_id)), limits_(limits), logger_(logger), participant_(static_cast<dds_domainid_t>(domain_id)),
-      pose_(participant_, topics::kPose, dds::QosProfile::kPose),
-      diagnostics_(participant_, topics::kDiagnostics, dds::QosProfile::kSensor),
-      grid_(participant_, topics::kGrid, dds::QosProfile::kState),
-      map_cloud_(participant_, topics::kMapCloud, dds::QosProfile::kState),
-      landmark_map_(participant_, topics::kLandmarkMap, dds::QosProfile::kState),
-      exploration_goal_(participant_, topics::kExplorationGoal, dds::QosProfile::kState),
-      status_(participant_, topics::kSessionStatus, dds::QosProfile::kState),
+DdsBridge::DdsBridge(int domain_id, std::string server_id, const Limits& limits, Logger& logger, size_t max_robots)
+    : server_id_(std::move(server_id)), limits_(limits), logger_(logger), max_robots_(std::max<size_t>(1, max_robots)),
+      participant_(static_cast<dds_domainid_t>(domain_id)),
       server_info_(participant_, topics::kServerInfo, dds::QosProfile::kState) {}
 
 DdsBridge::~DdsBridge() { disconnect(); }
 
-template <typename Wire>
-static dds::Reader<Wire> sensor_reader(const dds::Participant& participant, const char* topic, Server& server,
-                                       const Limits& limits) {
+std::shared_ptr<DdsBridge::RobotWriters> DdsBridge::writers_for(const std::string& robot_id) {
+  std::lock_guard<std::mutex> lock(writers_mutex_);
+  auto& slot = robot_writers_[robot_id];
+  if (!slot) {
+    if (robot_writers_.size() > max_robots_) {
+      // Release the robot written to least recently (its transient-local data goes with it).
+      auto oldest = robot_writers_.end();
+      for (auto it = robot_writers_.begin(); it != robot_writers_.end(); ++it) {
+        if (it->second && (oldest == robot_writers_.end() || it->second->last_use < oldest->second->last_use)) oldest = it;
+      }
+      if (oldest != robot_writers_.end()) robot_writers_.erase(oldest);
+    }
+    slot = std::make_shared<RobotWriters>(participant_, robot_id);
+  }
+  slot->last_use = ++use_counter_;
+  return slot;
+}
+
+namespace {
+
+// Every per-robot reader of the server: in every robot's partition, robot scoped. A sample from a
+// writer outside its robot's partition is refused and reported to the writer's own robot, if the
+// writer has one; a robot id that is not allowed is refused before anything is kept for it.
+template <typename Wire, typename Handle>
+dds::Reader<Wire> robot_reader(const dds::Participant& participant, const char* topic, dds::QosProfile profile,
+                               Server& server, Handle&& handle, int depth = 8) {
   return dds::Reader<Wire>(
-      participant, topic, dds::QosProfile::kSensor,
-      [&server, &limits, topic](const Wire& sample) {
+      participant, topic, profile,
+      [&server, topic, handle = std::forward<Handle>(handle)](const Wire& sample) {
         const std::string robot_id = dds::to_string(sample.robot_id);
+        if (std::string error = robot_id_error(robot_id); !error.empty()) {
+          server.on_invalid_robot_id(topic, error);
+          return;
+        }
+        handle(robot_id, sample);
+      },
+      depth, {topics::kAllRobotsPartition},
+      [&server, topic](const Wire& sample, const dds::Partitions& writer_partitions) {
+        std::string writer_robot;
+        std::string partitions;
+        for (const auto& p : writer_partitions) {
+          partitions += (partitions.empty() ? "" : ", ") + p;
+          const std::string prefix = topics::kRobotPartitionPrefix;
+          if (writer_robot.empty() && p.rfind(prefix, 0) == 0) writer_robot = p.substr(prefix.size());
+        }
+        const std::string error = "a sample for robot '" + escaped(dds::to_string(sample.robot_id)) +
+                                  "' was published in partition [" + escaped(partitions) +
+                                  "]; a robot publishes only in its own partition " + topics::kRobotPartitionPrefix +
+                                  "<robot_id>";
+        if (robot_id_error(writer_robot).empty()) {
+          server.on_bad_input(writer_robot, topic, error);
+        } else {
+          server.on_invalid_robot_id(topic, error);
+        }
+      });
+}
+
+template <typename Wire>
+dds::Reader<Wire> sensor_reader(const dds::Participant& participant, const char* topic, Server& server,
+                                const Limits& limits) {
+  return robot_reader<Wire>(
+      participant, topic, dds::QosProfile::kSensor, server,
+      [&server, &limits, topic](const std::string& robot_id, const Wire& sample) {
         try {
           server.on_measurement(robot_id, Measurement(convert(sample, limits)));
         } catch (const std::exception& e) {
@@ -82,6 +166,8 @@ static dds::Reader<Wire> sensor_reader(const dds::Participant& participant, cons
       },
       kSensorReaderDepth);
 }
+
+}  // namespace
 
 void DdsBridge::connect(Server& server) {
   auto readers = std::make_unique<Readers>();
@@ -92,11 +178,11 @@ void DdsBridge::connect(Server& server) {
   readers->image = sensor_reader<locd_msg_Image>(participant_, topics::kImage, server, limits_);
   readers->detections = sensor_reader<locd_msg_LandmarkDetections>(participant_, topics::kDetections, server, limits_);
   Logger* logger = &logger_;
-  readers->session_request = dds::Reader<locd_msg_SessionRequest>(
-      participant_, topics::kSessionRequest, dds::QosProfile::kState,
-      [&server, logger](const locd_msg_SessionRequest& sample) {
+  readers->session_request = robot_reader<locd_msg_SessionRequest>(
+      participant_, topics::kSessionRequest, dds::QosProfile::kState, server,
+      [&server, logger](const std::string& robot_id, const locd_msg_SessionRequest& sample) {
         SessionRequestMessage request;
-        request.robot_id = dds::to_string(sample.robot_id);
+        request.robot_id = robot_id;
         request.request_id = sample.request_id;
         request.stop = sample.action == locd_msg_SESSION_STOP;
         request.plugin = dds::to_string(sample.plugin);
@@ -107,19 +193,19 @@ void DdsBridge::connect(Server& server) {
           logger->log(LogLevel::kError, "server", std::string("session request not handled: ") + e.what());
         }
       });
-  readers->initial_pose = dds::Reader<locd_msg_InitialPose>(
-      participant_, topics::kInitialPose, dds::QosProfile::kState, [&server](const locd_msg_InitialPose& sample) {
-        const std::string robot_id = dds::to_string(sample.robot_id);
+  readers->initial_pose = robot_reader<locd_msg_InitialPose>(
+      participant_, topics::kInitialPose, dds::QosProfile::kState, server,
+      [&server](const std::string& robot_id, const locd_msg_InitialPose& sample) {
         try {
           server.on_initial_pose(robot_id, dds::from_wire(sample));
         } catch (const std::exception& e) {
           server.on_bad_input(robot_id, topics::kInitialPose, e.what());
         }
       });
-  readers->map_save_request = dds::Reader<locd_msg_MapSaveRequest>(
-      participant_, topics::kMapSaveRequest, dds::QosProfile::kSensor,
-      [&server](const locd_msg_MapSaveRequest& sample) {
-        server.on_map_save_request(dds::to_string(sample.robot_id), sample.request_id);
+  readers->map_save_request = robot_reader<locd_msg_MapSaveRequest>(
+      participant_, topics::kMapSaveRequest, dds::QosProfile::kSensor, server,
+      [&server](const std::string& robot_id, const locd_msg_MapSaveRequest& sample) {
+        server.on_map_save_request(robot_id, sample.request_id);
       });
   readers_ = std::move(readers);
 }
@@ -146,17 +232,30 @@ void DdsBridge::publish_status(const SessionStatusReport& s) {
   wire->updates = s.counters.updates;
   wire->last_update_ms = s.counters.last_update_ms;
   wire->initial_pose_stamp_ns = s.initial_pose_stamp_ns;
-  status_.write(*wire);
+  writers_for(s.robot_id)->status.write(*wire);
 }
 
 void DdsBridge::publish_outputs(const std::string& robot_id, const std::string& plugin, const Header& header,
                                 const UpdateResult& result, double update_ms) {
-  if (result.estimate) dds::write(pose_, robot_id, *result.estimate, plugin, update_ms);
-  if (!result.diagnostics.empty()) dds::write(diagnostics_, robot_id, header, plugin, result.diagnostics);
-  if (result.grid) dds::write(grid_, robot_id, header, *result.grid);
-  if (result.map_cloud) dds::write(map_cloud_, robot_id, header, *result.map_cloud);
-  if (result.landmark_map) dds::write(landmark_map_, robot_id, header, *result.landmark_map);
-  if (result.exploration_goal) dds::write(exploration_goal_, robot_id, *result.exploration_goal, plugin);
+  const auto writers = writers_for(robot_id);
+  auto& w = *writers;
+  if (result.estimate) dds::write(w.pose, robot_id, *result.estimate, plugin, update_ms);
+  if (!result.diagnostics.empty()) dds::write(w.diagnostics, robot_id, header, plugin, result.diagnostics);
+  if (result.grid) {
+    dds::write(w.grid.get(w.mutex, participant_, topics::kGrid, w.partitions), robot_id, header, *result.grid);
+  }
+  if (result.map_cloud) {
+    dds::write(w.map_cloud.get(w.mutex, participant_, topics::kMapCloud, w.partitions), robot_id, header,
+               *result.map_cloud);
+  }
+  if (result.landmark_map) {
+    dds::write(w.landmark_map.get(w.mutex, participant_, topics::kLandmarkMap, w.partitions), robot_id, header,
+               *result.landmark_map);
+  }
+  if (result.exploration_goal) {
+    dds::write(w.exploration_goal.get(w.mutex, participant_, topics::kExplorationGoal, w.partitions), robot_id,
+               *result.exploration_goal, plugin);
+  }
 }
 
 void DdsBridge::publish_server_info(const ServerInfoReport& info) {

@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <ctime>
 
+#include "locd/sdk/text.hpp"
+
 namespace locd::server {
 
 LogLevel parse_log_level(const std::string& name) {
@@ -34,9 +36,14 @@ void Logger::log(LogLevel level, const std::string& subject, const std::string& 
   gmtime_r(&seconds, &utc);
   char stamp[32];
   std::strftime(stamp, sizeof stamp, "%Y-%m-%dT%H:%M:%S", &utc);
+  // One event, one line: text that came from the network (robot ids, YAML, plugin messages) is
+  // escaped here, so nothing can forge or split a line.
+  constexpr size_t kMaxLoggedMessage = 8192;
+  const std::string safe_subject = escaped(subject, 64);
+  const std::string safe_message = escaped(message, kMaxLoggedMessage);
   std::lock_guard<std::mutex> lock(mutex_);
   std::fprintf(stderr, "%s.%03dZ %s [%s] %s\n", stamp, static_cast<int>(millis), log_level_name(level),
-               subject.c_str(), message.c_str());
+               safe_subject.c_str(), safe_message.c_str());
   std::fflush(stderr);
 }
 

@@ -50,6 +50,10 @@ struct Options {
   std::optional<std::string> log_level;
 };
 
+// Robots without a session the bridge keeps status writers for (their "no session" answers),
+// beyond max_sessions; the least recently answered go first.
+constexpr size_t kUnservedRobotsWithWriters = 256;
+
 int signal_pipe[2] = {-1, -1};
 
 extern "C" void on_signal(int) {
@@ -181,7 +185,7 @@ int run(const Options& o) {
   for (const auto& rejected : catalog.rejected()) logger.log(LogLevel::kWarning, "server", "plugin refused: " + rejected);
 
   try {
-    DdsBridge bridge(config.domain_id, config.server_id, config.limits, logger);
+    DdsBridge bridge(config.domain_id, config.server_id, config.limits, logger, config.max_sessions + kUnservedRobotsWithWriters);
     Server server(config, catalog, bridge, logger);
     // Whatever way this scope ends, the listeners stop before the server they call goes away.
     struct ReadersFirst {

@@ -1,6 +1,7 @@
 #include "locd/server/server.hpp"
 
 #include "locd/dds/topics.hpp"
+#include "locd/sdk/robot_id.hpp"
 
 namespace locd::server {
 namespace {
@@ -107,9 +108,8 @@ uint64_t Server::messages_without_session() const {
 }
 
 void Server::on_session_request(SessionRequestMessage request) {
-  if (request.robot_id.empty()) {
-    logger_.log(LogLevel::kWarning, "server", "session request " + std::to_string(request.request_id) +
-                                                  " ignored: robot_id is empty");
+  if (const std::string error = robot_id_error(request.robot_id); !error.empty()) {
+    on_invalid_robot_id(topics::kSessionRequest, "session request " + std::to_string(request.request_id) + ": " + error);
     return;
   }
   if (request.stop) {
@@ -230,6 +230,31 @@ void Server::on_map_save_request(const std::string& robot_id, uint64_t request_i
     return;
   }
   report_no_session(robot_id, topics::kMapSaveRequest, "");
+}
+
+void Server::on_invalid_robot_id(const std::string& topic, const std::string& error) {
+  std::string line;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++refused_robot_ids_;
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_refusal_log_ < kNoSessionReportPeriod) {
+      ++refused_robot_ids_not_logged_;
+      return;
+    }
+    last_refusal_log_ = now;
+    line = "refused a message on " + topic + ": " + error;
+    if (refused_robot_ids_not_logged_ > 0) {
+      line += " (and " + std::to_string(refused_robot_ids_not_logged_) + " more refused since the last line)";
+      refused_robot_ids_not_logged_ = 0;
+    }
+  }
+  logger_.log(LogLevel::kWarning, "server", line);
+}
+
+uint64_t Server::messages_refused_for_robot_id() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return refused_robot_ids_;
 }
 
 void Server::report_no_session(const std::string& robot_id, const std::string& topic, const std::string& detail) {

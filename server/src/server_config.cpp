@@ -5,13 +5,12 @@
 #include <fstream>
 #include <sstream>
 
+#include "locd/sdk/robot_id.hpp"
 #include "locd/server/log.hpp"
 
 namespace locd::server {
 namespace fs = std::filesystem;
 namespace {
-
-constexpr size_t kMaxRobotIdLength = 64;  // idl ROBOT_ID_MAX
 
 std::vector<fs::path> directories(const Params& params, const std::string& key, const fs::path& base) {
   std::vector<fs::path> out;
@@ -36,8 +35,8 @@ BootSession boot_session(const Params& entry, const std::string& source_name, co
   entry.expect_only({"robot_id", "plugin", "config_file", "config", "initial_pose"});
   BootSession boot;
   boot.robot_id = entry.required_text("robot_id");
-  if (boot.robot_id.empty() || boot.robot_id.size() > kMaxRobotIdLength) {
-    entry.fail("robot_id", "= '" + boot.robot_id + "' must have 1 to 64 characters");
+  if (const std::string error = robot_id_error(boot.robot_id); !error.empty()) {
+    entry.fail("robot_id", "is not allowed: " + error);
   }
   const bool has_file = entry.has("config_file");
   const bool has_inline = entry.has("config");

@@ -40,9 +40,11 @@ int main(int argc, char** argv) {
   const std::string robot = "latency_probe";
 
   locd::dds::Participant participant(domain);
+  const locd::dds::Partitions own{locd::topics::robot_partition(robot)};
   locd::dds::Writer<locd_msg_SessionRequest> requests(participant, locd::topics::kSessionRequest,
-                                                      locd::dds::QosProfile::kState);
-  locd::dds::Writer<locd_msg_Odometry> odometry(participant, locd::topics::kOdometry, locd::dds::QosProfile::kSensor);
+                                                      locd::dds::QosProfile::kState, 8, own);
+  locd::dds::Writer<locd_msg_Odometry> odometry(participant, locd::topics::kOdometry, locd::dds::QosProfile::kSensor, 8,
+                                                own);
   std::mutex mutex;
   std::vector<int64_t> sent_ns(static_cast<size_t>(count) + 1, 0);
   std::vector<double> end_to_end_us, above_plugin_us;
@@ -55,7 +57,8 @@ int main(int argc, char** argv) {
         const double total = static_cast<double>(now - sent_ns[k]) / 1e3;
         end_to_end_us.push_back(total);
         above_plugin_us.push_back(total - pose.update_ms * 1e3);
-      });
+      },
+      8, own);
   const auto deadline = std::chrono::steady_clock::now() + 20s;
   while (requests.matched() == 0 || odometry.matched() == 0 || poses.matched() == 0) {
     if (std::chrono::steady_clock::now() > deadline) {

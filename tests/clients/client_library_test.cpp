@@ -26,6 +26,7 @@ constexpr uint32_t kDomainSensors = 40;
 constexpr uint32_t kDomainPoses = 41;
 constexpr uint32_t kDomainRequests = 42;
 constexpr uint32_t kDomainServerInfo = 43;
+constexpr uint32_t kDomainOwnPoses = 192;
 
 // Polls `condition` until it holds or `timeout` passes.
 template <typename Condition>
@@ -43,11 +44,12 @@ bool eventually(Condition condition, std::chrono::milliseconds timeout = 10s) {
 template <typename T, typename Owned>
 class Inbox {
  public:
-  Inbox(const dds::Participant& p, const char* topic, dds::QosProfile qos, std::function<Owned(const T&)> copy)
+  Inbox(const dds::Participant& p, const char* topic, dds::QosProfile qos, std::function<Owned(const T&)> copy,
+        const dds::Partitions& partitions)
       : reader_(p, topic, qos, [this, copy](const T& s) {
           std::lock_guard<std::mutex> l(mutex_);
           items_.push_back(copy(s));
-        }) {}
+        }, 8, partitions) {}
   uint32_t matched() const { return reader_.matched(); }
   Owned take_one() {
     std::vector<Owned> got;
@@ -113,26 +115,28 @@ TEST(ClientLibrary, EverySensorTypeSurvivesTheWireExactly) {
   Client client({kDomainSensors, "robot_wire", 8});
   dds::Participant p(kDomainSensors);
   using dds::QosProfile;
-  dds::Reader<locd_msg_Odometry> odometry(p, topics::kOdometry, QosProfile::kSensor, nullptr);
-  dds::Reader<locd_msg_Imu> imu(p, topics::kImu, QosProfile::kSensor, nullptr);
+  // A server's readers: in every robot's partition; the client writes in robot.robot_wire.
+  const dds::Partitions all{topics::kAllRobotsPartition};
+  dds::Reader<locd_msg_Odometry> odometry(p, topics::kOdometry, QosProfile::kSensor, nullptr, 8, all);
+  dds::Reader<locd_msg_Imu> imu(p, topics::kImu, QosProfile::kSensor, nullptr, 8, all);
   struct ScanCopy { locd_msg_LaserScan wire; std::vector<float> ranges, intensities; };
   Inbox<locd_msg_LaserScan, ScanCopy> scan(p, topics::kScan, QosProfile::kSensor, [](const locd_msg_LaserScan& m) {
     return ScanCopy{m, owned(m.ranges), owned(m.intensities)};
-  });
+  }, all);
   struct CloudCopy { locd_msg_PointCloud wire; std::vector<float> xyz, intensity; };
   Inbox<locd_msg_PointCloud, CloudCopy> cloud(p, topics::kCloud, QosProfile::kSensor, [](const locd_msg_PointCloud& m) {
     return CloudCopy{m, owned(m.xyz), owned(m.intensity)};
-  });
+  }, all);
   struct ImageCopy { locd_msg_Image wire; std::vector<uint8_t> data; };
   Inbox<locd_msg_Image, ImageCopy> image(p, topics::kImage, QosProfile::kSensor, [](const locd_msg_Image& m) {
     return ImageCopy{m, owned(m.data)};
-  });
+  }, all);
   struct DetectionsCopy { locd_msg_LandmarkDetections wire; std::vector<locd_msg_LandmarkDetection> items; };
   Inbox<locd_msg_LandmarkDetections, DetectionsCopy> detections(
       p, topics::kDetections, QosProfile::kSensor,
-      [](const locd_msg_LandmarkDetections& m) { return DetectionsCopy{m, owned(m.detections)}; });
-  dds::Reader<locd_msg_PoseEstimate> truth(p, topics::kGroundTruth, QosProfile::kSensor, nullptr);
-  dds::Reader<locd_msg_InitialPose> initial(p, topics::kInitialPose, QosProfile::kState, nullptr);
+      [](const locd_msg_LandmarkDetections& m) { return DetectionsCopy{m, owned(m.detections)}; }, all);
+  dds::Reader<locd_msg_PoseEstimate> truth(p, topics::kGroundTruth, QosProfile::kSensor, nullptr, 8, all);
+  dds::Reader<locd_msg_InitialPose> initial(p, topics::kInitialPose, QosProfile::kState, nullptr, 8, all);
   ASSERT_TRUE(eventually([&] {
     return odometry.matched() && imu.matched() && scan.matched() && cloud.matched() && image.matched() &&
            detections.matched() && truth.matched() && initial.matched();
@@ -282,7 +286,9 @@ TEST(ClientLibrary, EverySensorTypeSurvivesTheWireExactly) {
 
 TEST(ClientLibrary, PosesReachCallbacksFilteredByRobot) {
   dds::Participant server(kDomainPoses);
-  dds::Writer<locd_msg_PoseEstimate> poses(server, topics::kPose, dds::QosProfile::kPose);
+  // A fake server writing both robots' poses (a real one writes each in its own partition).
+  const dds::Partitions both{topics::robot_partition("robot_a"), topics::robot_partition("robot_b")};
+  dds::Writer<locd_msg_PoseEstimate> poses(server, topics::kPose, dds::QosProfile::kPose, 8, both);
 
   Client client({kDomainPoses, "", 8});
   std::mutex mutex;
@@ -304,7 +310,7 @@ TEST(ClientLibrary, PosesReachCallbacksFilteredByRobot) {
   ASSERT_TRUE(eventually([&] { std::lock_guard<std::mutex> l(mutex); return every_robot.size() == 2; }));
 
   // A pose with NaN is dropped by the client; the next good one still arrives.
-  auto broken = dds::Writer<locd_msg_PoseEstimate>(server, topics::kPose, dds::QosProfile::kPose);
+  auto broken = dds::Writer<locd_msg_PoseEstimate>(server, topics::kPose, dds::QosProfile::kPose, 8, both);
   ASSERT_TRUE(eventually([&] { return broken.matched() > 0; }));
   locd_msg_PoseEstimate nan_pose{};
   dds::copy_string(nan_pose.robot_id, "robot_a");
@@ -332,6 +338,30 @@ TEST(ClientLibrary, PosesReachCallbacksFilteredByRobot) {
   EXPECT_EQ(every_robot[1].plugin, "ceiling_pf");
 }
 
+// A robot's client reads only its own robot's partition: another robot's poses never reach it,
+// so N robots watching themselves cost O(N) pose traffic. A watcher of {"*"} gets every robot.
+TEST(ClientLibrary, ARobotsClientReceivesOnlyItsOwnPoses) {
+  dds::Participant server(kDomainOwnPoses);
+  dds::Writer<locd_msg_PoseEstimate> poses_a(server, topics::kPose, dds::QosProfile::kPose, 8,
+                                             {topics::robot_partition("robot_a")});
+  dds::Writer<locd_msg_PoseEstimate> poses_b(server, topics::kPose, dds::QosProfile::kPose, 8,
+                                             {topics::robot_partition("robot_b")});
+  Client robot_a({kDomainOwnPoses, "robot_a", 8});
+  Client operator_view({.domain_id = kDomainOwnPoses, .robot_id = "", .sensor_depth = 8, .watch = {"*"}});
+  std::atomic<int> a_seen{0}, a_foreign{0}, operator_seen{0};
+  robot_a.on_pose([&](const PoseUpdate& p) { p.robot_id == "robot_a" ? ++a_seen : ++a_foreign; });
+  operator_view.on_pose([&](const PoseUpdate&) { ++operator_seen; });
+  ASSERT_TRUE(eventually([&] { return poses_a.matched() == 2 && poses_b.matched() == 1; }))
+      << "robot_a's reader must match only robot_a's writer: a " << poses_a.matched() << ", b " << poses_b.matched();
+  PoseEstimate estimate;
+  estimate.header = {1'000, "map"};
+  dds::write(poses_b, "robot_b", estimate, "feature_ekf", 0.1);
+  dds::write(poses_a, "robot_a", estimate, "feature_ekf", 0.1);
+  ASSERT_TRUE(eventually([&] { return a_seen.load() == 1 && operator_seen.load() == 2; }));
+  std::this_thread::sleep_for(100ms);
+  EXPECT_EQ(a_foreign.load(), 0);
+}
+
 locd_msg_SessionStatus make_status(const std::string& robot, uint64_t request_id, locd_msg_SessionState state,
                                    bool ok, const std::string& message) {
   locd_msg_SessionStatus s{};
@@ -355,9 +385,11 @@ locd_msg_SessionStatus make_status(const std::string& robot, uint64_t request_id
 
 TEST(ClientLibrary, RequestIsAnsweredOnlyByTheStatusWithItsRequestId) {
   dds::Participant server(kDomainRequests);
-  dds::Reader<locd_msg_SessionRequest> requests(server, topics::kSessionRequest, dds::QosProfile::kState, nullptr);
-  dds::Writer<locd_msg_SessionStatus> statuses(server, topics::kSessionStatus, dds::QosProfile::kState);
-  dds::Reader<locd_msg_MapSaveRequest> saves(server, topics::kMapSaveRequest, dds::QosProfile::kSensor, nullptr);
+  const dds::Partitions all{topics::kAllRobotsPartition};
+  const dds::Partitions robot{topics::robot_partition("robot_req")};
+  dds::Reader<locd_msg_SessionRequest> requests(server, topics::kSessionRequest, dds::QosProfile::kState, nullptr, 8, all);
+  dds::Writer<locd_msg_SessionStatus> statuses(server, topics::kSessionStatus, dds::QosProfile::kState, 8, robot);
+  dds::Reader<locd_msg_MapSaveRequest> saves(server, topics::kMapSaveRequest, dds::QosProfile::kSensor, nullptr, 8, all);
 
   Client client({kDomainRequests, "robot_req", 8});
   ASSERT_TRUE(eventually([&] { return requests.matched() > 0 && statuses.matched() > 0; }));
@@ -441,9 +473,13 @@ TEST(ClientLibrary, RequestIsAnsweredOnlyByTheStatusWithItsRequestId) {
 TEST(ClientLibrary, ServerInfoAndSessionStatesAreConvertedForLateJoiners) {
   dds::Participant server(kDomainServerInfo);
   dds::Writer<locd_msg_ServerInfo> info_writer(server, topics::kServerInfo, dds::QosProfile::kState);
-  dds::Writer<locd_msg_SessionStatus> status_writer(server, topics::kSessionStatus, dds::QosProfile::kState);
+  dds::Partitions robots;
+  for (int i = 0; i < 10; ++i) robots.push_back(topics::robot_partition("robot_" + std::to_string(i)));
+  dds::Writer<locd_msg_SessionStatus> status_writer(server, topics::kSessionStatus, dds::QosProfile::kState, 8, robots);
 
   EXPECT_THROW(Client({kDomainServerInfo, std::string(65, 'r'), 8}), std::invalid_argument);
+  EXPECT_THROW(Client({kDomainServerInfo, "robot*", 8}), std::invalid_argument);  // would be a wildcard partition
+  EXPECT_THROW(Client({kDomainServerInfo, "robot 1", 8}), std::invalid_argument);
   EXPECT_THROW(Client({kDomainServerInfo, "robot", 0}), std::invalid_argument);
   EXPECT_THROW(Client({233, "robot", 8}), std::invalid_argument);
   {

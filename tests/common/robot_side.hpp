@@ -31,7 +31,7 @@ class RobotSide {
         locd_(locd),
         timeout_(timeout),
         participant_(domain),
-        requests_(participant_, topics::kSessionRequest, dds::QosProfile::kState),
+        requests_(participant_, topics::kSessionRequest, dds::QosProfile::kState, 8, partition()),
         statuses_(participant_, topics::kSessionStatus, dds::QosProfile::kState,
                   [this](const locd_msg_SessionStatus& m) {
                     if (dds::to_string(m.robot_id) != robot_id_) return;
@@ -39,24 +39,28 @@ class RobotSide {
                     std::lock_guard<std::mutex> lock(mutex_);
                     status_ = std::move(status);
                     changed_.notify_all();
-                  }),
+                  },
+                  8, partition()),
         poses_(participant_, topics::kPose, dds::QosProfile::kPose, [this](const locd_msg_PoseEstimate& m) {
           if (dds::to_string(m.robot_id) != robot_id_) return;
           PoseEstimate p = dds::from_wire(m);
           std::lock_guard<std::mutex> lock(mutex_);
           poses_seen_.push_back(std::move(p));
           changed_.notify_all();
-        }) {}
+        }, 8, partition()) {}
 
   dds::Participant& participant() { return participant_; }
   const std::string& robot_id() const { return robot_id_; }
+  // The robot's DDS partition: every endpoint of the robot's side lives in it (topics.hpp).
+  dds::Partitions partition() const { return {topics::robot_partition(robot_id_)}; }
 
-  // Until locd has matched the request writer, the status reader and every endpoint given (the
-  // test's own sensor writers and readers), or the timeout.
+  // Until locd has matched the request writer and every endpoint given (the test's own sensor
+  // writers), or the timeout. The server writes a robot's outputs in its partition with writers
+  // made for its session: readers of outputs match once the session has begun.
   template <class... Endpoints>
   ::testing::AssertionResult wait_matched(const Endpoints&... endpoints) {
     const auto deadline = std::chrono::steady_clock::now() + timeout_;
-    while (requests_.matched() == 0 || statuses_.matched() == 0 || ((endpoints.matched() == 0) || ...)) {
+    while (requests_.matched() == 0 || ((endpoints.matched() == 0) || ...)) {
       if (std::chrono::steady_clock::now() > deadline || !locd_.running()) {
         return ::testing::AssertionFailure() << "locd did not come up:\n" << locd_.output();
       }

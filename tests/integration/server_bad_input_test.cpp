@@ -62,35 +62,29 @@ class LocdOverDds {
         (dir_ / "locd.log").string());
 
     participant_ = std::make_unique<locd::dds::Participant>(domain);
-    requests_ = locd::dds::Writer<locd_msg_SessionRequest>(*participant_, locd::topics::kSessionRequest, QosProfile::kState);
-    scans_ = locd::dds::Writer<locd_msg_LaserScan>(*participant_, locd::topics::kScan, QosProfile::kSensor);
-    odometry_ = locd::dds::Writer<locd_msg_Odometry>(*participant_, locd::topics::kOdometry, QosProfile::kSensor, 64);
+    // The test watches every robot, as an operator would.
+    const locd::dds::Partitions every_robot{locd::topics::kAllRobotsPartition};
     statuses_ = locd::dds::Reader<locd_msg_SessionStatus>(
         *participant_, locd::topics::kSessionStatus, QosProfile::kState, [this](const locd_msg_SessionStatus& m) {
           const Status s = locd::status_from_wire(m);
           std::lock_guard<std::mutex> lock(mutex_);
           history_.push_back(s);
           changed_.notify_all();
-        });
+        },
+        8, every_robot);
     poses_ = locd::dds::Reader<locd_msg_PoseEstimate>(
         *participant_, locd::topics::kPose, QosProfile::kPose, [this](const locd_msg_PoseEstimate& m) {
           std::lock_guard<std::mutex> lock(mutex_);
           pose_stamps_[locd::dds::to_string(m.robot_id)].push_back(m.header.stamp_ns);
           changed_.notify_all();
-        });
-    // Discovery: the server's readers and writers match ours.
-    const auto deadline = std::chrono::steady_clock::now() + kTimeout;
-    while (requests_.matched() == 0 || scans_.matched() == 0 || odometry_.matched() == 0 || statuses_.matched() == 0) {
-      if (std::chrono::steady_clock::now() > deadline || !locd_->running()) {
-        throw std::runtime_error("locd did not come up on domain " + std::to_string(domain) + ":\n" + locd_->output());
-      }
-      std::this_thread::sleep_for(10ms);
-    }
+        },
+        8, every_robot);
   }
 
   ~LocdOverDds() {
     statuses_ = {};
     poses_ = {};
+    robots_.clear();
     if (locd_->running()) {
       locd_->signal(SIGTERM);
       locd_->wait(10s);
@@ -100,8 +94,14 @@ class LocdOverDds {
   }
 
   // Sends a request and waits for its outcome on the status topic.
+  // `from`: the robot whose partition the request is written in (default: `robot`'s own).
   Status request(const std::string& robot, uint64_t id, const std::string& plugin, const std::string& yaml,
-                 locd_msg_SessionAction action = locd_msg_SESSION_START) {
+                 locd_msg_SessionAction action = locd_msg_SESSION_START, const std::string& from = "") {
+    send_request(robot, id, plugin, yaml, action, from);
+    return wait_status(robot, [id](const Status& s) { return s.request_id == id && s.state != "starting"; });
+  }
+  void send_request(const std::string& robot, uint64_t id, const std::string& plugin, const std::string& yaml,
+                    locd_msg_SessionAction action, const std::string& from) {
     auto sample = std::make_unique<locd_msg_SessionRequest>();
     std::memset(sample.get(), 0, sizeof(locd_msg_SessionRequest));
     locd::dds::copy_string(sample->robot_id, robot);
@@ -109,8 +109,7 @@ class LocdOverDds {
     sample->action = action;
     locd::dds::copy_string(sample->plugin, plugin);
     locd::dds::copy_string(sample->config_yaml, yaml);
-    requests_.write(*sample);
-    return wait_status(robot, [id](const Status& s) { return s.request_id == id && s.state != "starting"; });
+    endpoints(from.empty() ? robot : from).requests.write(*sample);
   }
 
   // Waits for a status of `robot` matching `pred`; fails the test with the last one seen.
@@ -153,7 +152,7 @@ class LocdOverDds {
     return changed_.wait_for(lock, kTimeout, [&] { return pose_stamps_[robot].size() >= count; });
   }
 
-  void send_scan(const std::string& robot, int64_t stamp, std::vector<float> ranges) {
+  void send_scan(const std::string& robot, int64_t stamp, std::vector<float> ranges, const std::string& from = "") {
     locd::LaserScan scan;
     scan.header = {stamp, "laser"};
     scan.angle_min = static_cast<float>(-M_PI / 2);
@@ -161,14 +160,45 @@ class LocdOverDds {
     scan.range_min = 0.05f;
     scan.range_max = 30.0f;
     scan.ranges = std::move(ranges);
-    locd::dds::write(scans_, robot, scan);
+    locd::dds::write(endpoints(from.empty() ? robot : from).scans, robot, scan);
   }
-  void send_odometry(const std::string& robot, int64_t stamp, double x) {
+  void send_odometry(const std::string& robot, int64_t stamp, double x, const std::string& from = "") {
     locd::Odometry odometry;
     odometry.header = {stamp, "odom"};
     odometry.pose.translation() = Eigen::Vector3d(x, 0.0, 0.0);
     odometry.linear_velocity = Eigen::Vector3d(0.5, 0.0, 0.0);
-    locd::dds::write(odometry_, robot, odometry);
+    locd::dds::write(endpoints(from.empty() ? robot : from).odometry, robot, odometry);
+  }
+
+  // The writers of a robot's side, in the partition of `partition_robot` (default: the robot's
+  // own, as a robot publishes), made on first use once the server's readers matched them.
+  struct RobotEndpoints {
+    RobotEndpoints(const locd::dds::Participant& p, const std::string& partition_robot)
+        : requests(p, locd::topics::kSessionRequest, QosProfile::kState, 8,
+                   {locd::topics::robot_partition(partition_robot)}),
+          scans(p, locd::topics::kScan, QosProfile::kSensor, 8, {locd::topics::robot_partition(partition_robot)}),
+          odometry(p, locd::topics::kOdometry, QosProfile::kSensor, 64,
+                   {locd::topics::robot_partition(partition_robot)}) {}
+    locd::dds::Writer<locd_msg_SessionRequest> requests;
+    locd::dds::Writer<locd_msg_LaserScan> scans;
+    locd::dds::Writer<locd_msg_Odometry> odometry;
+  };
+  RobotEndpoints& endpoints(const std::string& partition_robot) {
+    auto& slot = robots_[partition_robot];
+    if (!slot) {
+      slot = std::make_unique<RobotEndpoints>(*participant_, partition_robot);
+      const auto deadline = std::chrono::steady_clock::now() + kTimeout;
+      // (The server's writers of this robot's outputs appear with its first status: readers match
+      // them then, and transient-local delivers what was written.)
+      while (slot->requests.matched() == 0 || slot->scans.matched() == 0 || slot->odometry.matched() == 0) {
+        if (std::chrono::steady_clock::now() > deadline || !locd_->running()) {
+          throw std::runtime_error("locd did not match robot '" + partition_robot + "' on domain " +
+                                   std::to_string(domain_) + ":\n" + locd_->output());
+        }
+        std::this_thread::sleep_for(10ms);
+      }
+    }
+    return *slot;
   }
 
   locd::test::ChildProcess& locd() { return *locd_; }
@@ -178,9 +208,7 @@ class LocdOverDds {
   fs::path dir_;
   std::unique_ptr<locd::test::ChildProcess> locd_;
   std::unique_ptr<locd::dds::Participant> participant_;
-  locd::dds::Writer<locd_msg_SessionRequest> requests_;
-  locd::dds::Writer<locd_msg_LaserScan> scans_;
-  locd::dds::Writer<locd_msg_Odometry> odometry_;
+  std::map<std::string, std::unique_ptr<RobotEndpoints>> robots_;
   locd::dds::Reader<locd_msg_SessionStatus> statuses_;
   locd::dds::Reader<locd_msg_PoseEstimate> poses_;
   std::mutex mutex_;
@@ -357,4 +385,42 @@ TEST(ServerBadInput, RequestsBeyondMaxSessionsAreRefusedAndTheOthersRun) {
   EXPECT_TRUE(locd.request("robot_a", 2, "", kFixtureConfig).request_ok);
   EXPECT_TRUE(locd.request("robot_b", 2, "", "", locd_msg_SESSION_STOP).request_id == 2);
   EXPECT_TRUE(locd.request("robot_c", 2, "", kFixtureConfig).request_ok);
+}
+
+// Addressing: a sample travels in its robot's partition robot.<robot_id>. Written by robot A's
+// side for robot B, a start, a stop and sensor data are refused and reported on A's status; B's
+// session runs on untouched. (With DDS Security, A's identity cannot even publish in B's
+// partition; this is what stays true in plain mode.)
+TEST(ServerBadInput, ARobotCanNeitherStopNorFeedAnotherRobot) {
+  LocdOverDds locd(190);
+  ASSERT_TRUE(locd.request("robot_b", 1, "", kFixtureConfig).request_ok);
+  ASSERT_TRUE(locd.request("robot_a", 1, "", kFixtureConfig).request_ok);
+  locd.send_request("robot_b", 2, "", "", locd_msg_SESSION_STOP, "robot_a");
+  locd.send_odometry("robot_b", 1000, 25.0, "robot_a");
+  const auto a = locd.wait_status("robot_a", [](const Status& s) { return s.rejected >= 2; });
+  EXPECT_CONTAINS(a.last_error, "a sample for robot 'robot_b' was published in partition [robot.robot_a]");
+  locd.send_odometry("robot_b", 2000, 1.0);
+  ASSERT_TRUE(locd.wait_poses("robot_b", 1));
+  const auto b = locd.wait_status("robot_b", [](const Status& s) { return s.used == 1; });
+  EXPECT_EQ(b.state, "running");
+  EXPECT_EQ(b.received, 1u) << describe(b);
+  EXPECT_EQ(locd.pose_stamps("robot_b"), (std::vector<int64_t>{2000}));
+}
+
+// A robot id outside [A-Za-z0-9_.-]{1,64} is refused before anything is kept for it, and the log
+// line naming it is escaped: a newline in it cannot forge a line.
+TEST(ServerBadInput, RobotIdsOutsideTheAllowedCharactersAreRefusedAndEscapedInTheLog) {
+  LocdOverDds locd(191);
+  locd.send_odometry("evil\n2026-01-01T00:00:00.000Z info [server] forged", 1000, 0.0);
+  ASSERT_TRUE(locd.request("robot_ok", 1, "", kFixtureConfig).request_ok);
+  const auto deadline = std::chrono::steady_clock::now() + kTimeout;
+  std::string log;
+  while (std::chrono::steady_clock::now() < deadline) {
+    log = locd.locd().output();
+    if (log.find("refused a message on locd/odometry") != std::string::npos) break;
+    std::this_thread::sleep_for(20ms);
+  }
+  EXPECT_CONTAINS(log, "refused a message on locd/odometry: robot_id 'evil\\n2026-01-01T00:00:00.000Z info [server] "
+                       "forged' contains '\\n'; allowed: 1-64 characters of [A-Za-z0-9_.-]");
+  EXPECT_EQ(log.find("\n2026-01-01T00:00:00.000Z info [server] forged"), std::string::npos) << log;
 }

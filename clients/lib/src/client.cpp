@@ -18,6 +18,7 @@
 #include "locd/dds/dds.hpp"
 #include "locd/dds/topics.hpp"
 #include "locd/sdk/errors.hpp"
+#include "locd/sdk/robot_id.hpp"
 
 namespace locd {
 namespace {
@@ -112,9 +113,9 @@ SessionStatus status_from_wire(const locd_msg_SessionStatus& m) {
 
 // Refuses options DDS could not carry, before any entity is created.
 const ClientOptions& checked(const ClientOptions& o) {
-  if (o.robot_id.size() > 64) {
-    throw std::invalid_argument("robot_id '" + o.robot_id.substr(0, 32) + "...' is " + std::to_string(o.robot_id.size()) +
-                                " characters; allowed: at most 64");
+  if (!o.robot_id.empty()) check_robot_id(o.robot_id);
+  for (const auto& robot : o.watch) {
+    if (robot != "*") check_robot_id(robot);
   }
   if (o.sensor_depth < 1 || o.sensor_depth > 10000) {
     throw std::invalid_argument("sensor_depth = " + std::to_string(o.sensor_depth) + " is out of range; allowed: 1..10000");
@@ -125,30 +126,51 @@ const ClientOptions& checked(const ClientOptions& o) {
   return o;
 }
 
+// The partitions a client reads outputs in (ClientOptions::watch).
+dds::Partitions watched_partitions(const ClientOptions& o) {
+  if (o.watch.empty()) {
+    return {o.robot_id.empty() ? topics::kAllRobotsPartition : topics::robot_partition(o.robot_id)};
+  }
+  dds::Partitions partitions;
+  for (const auto& robot : o.watch) {
+    if (robot == "*") return {topics::kAllRobotsPartition};
+    partitions.push_back(topics::robot_partition(robot));
+  }
+  return partitions;
+}
+
+// The partition a client publishes in: its robot's (a pure watcher publishes nothing).
+dds::Partitions own_partition(const ClientOptions& o) {
+  return o.robot_id.empty() ? dds::Partitions{} : dds::Partitions{topics::robot_partition(o.robot_id)};
+}
+
 struct Client::Impl {
   explicit Impl(const ClientOptions& o)
       : options(checked(o)),
         participant(static_cast<dds_domainid_t>(o.domain_id)),
-        odometry(participant, topics::kOdometry, dds::QosProfile::kSensor, o.sensor_depth),
-        imu(participant, topics::kImu, dds::QosProfile::kSensor, o.sensor_depth),
-        scan(participant, topics::kScan, dds::QosProfile::kSensor, o.sensor_depth),
-        cloud(participant, topics::kCloud, dds::QosProfile::kSensor, o.sensor_depth),
-        image(participant, topics::kImage, dds::QosProfile::kSensor, o.sensor_depth),
-        detections(participant, topics::kDetections, dds::QosProfile::kSensor, o.sensor_depth),
-        ground_truth(participant, topics::kGroundTruth, dds::QosProfile::kSensor, o.sensor_depth),
-        session_request(participant, topics::kSessionRequest, dds::QosProfile::kState),
-        initial_pose(participant, topics::kInitialPose, dds::QosProfile::kState),
-        map_save_request(participant, topics::kMapSaveRequest, dds::QosProfile::kSensor) {
+        odometry(participant, topics::kOdometry, dds::QosProfile::kSensor, o.sensor_depth, own_partition(o)),
+        imu(participant, topics::kImu, dds::QosProfile::kSensor, o.sensor_depth, own_partition(o)),
+        scan(participant, topics::kScan, dds::QosProfile::kSensor, o.sensor_depth, own_partition(o)),
+        cloud(participant, topics::kCloud, dds::QosProfile::kSensor, o.sensor_depth, own_partition(o)),
+        image(participant, topics::kImage, dds::QosProfile::kSensor, o.sensor_depth, own_partition(o)),
+        detections(participant, topics::kDetections, dds::QosProfile::kSensor, o.sensor_depth, own_partition(o)),
+        ground_truth(participant, topics::kGroundTruth, dds::QosProfile::kSensor, o.sensor_depth, own_partition(o)),
+        session_request(participant, topics::kSessionRequest, dds::QosProfile::kState, 8, own_partition(o)),
+        initial_pose(participant, topics::kInitialPose, dds::QosProfile::kState, 8, own_partition(o)),
+        map_save_request(participant, topics::kMapSaveRequest, dds::QosProfile::kSensor, 8, own_partition(o)) {
     // Readers last: their listeners call into the state above as soon as they exist.
-    pose_reader = dds::Reader<locd_msg_PoseEstimate>(participant, topics::kPose, dds::QosProfile::kPose,
-                                                      [this](const locd_msg_PoseEstimate& m) { on_pose(m); });
-    status_reader = dds::Reader<locd_msg_SessionStatus>(participant, topics::kSessionStatus, dds::QosProfile::kState,
-                                                         [this](const locd_msg_SessionStatus& m) { on_status(m); });
+    const dds::Partitions watched = watched_partitions(o);
+    pose_reader = dds::Reader<locd_msg_PoseEstimate>(
+        participant, topics::kPose, dds::QosProfile::kPose, [this](const locd_msg_PoseEstimate& m) { on_pose(m); }, 8,
+        watched);
+    status_reader = dds::Reader<locd_msg_SessionStatus>(
+        participant, topics::kSessionStatus, dds::QosProfile::kState,
+        [this](const locd_msg_SessionStatus& m) { on_status(m); }, 8, watched);
     server_reader = dds::Reader<locd_msg_ServerInfo>(participant, topics::kServerInfo, dds::QosProfile::kState,
                                                       [this](const locd_msg_ServerInfo& m) { on_server_info(m); });
     goal_reader = dds::Reader<locd_msg_ExplorationGoal>(
         participant, topics::kExplorationGoal, dds::QosProfile::kState,
-        [this](const locd_msg_ExplorationGoal& m) { on_exploration_goal(m); });
+        [this](const locd_msg_ExplorationGoal& m) { on_exploration_goal(m); }, 8, watched);
   }
 
   ~Impl() {

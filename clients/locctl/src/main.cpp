@@ -55,10 +55,13 @@ std::string no_server_message(const CommandLine& cl, double timeout_s) {
          "); is locd running with the same domain and the same CYCLONEDDS_URI? (--domain N, --timeout S)";
 }
 
-ClientOptions client_options(const CommandLine& cl, const std::string& robot) {
+// A client acting for `robot` (publishes in its partition and reads its outputs), or, with an
+// empty robot, a watcher of `watch` (every robot by default).
+ClientOptions client_options(const CommandLine& cl, const std::string& robot, std::vector<std::string> watch = {}) {
   ClientOptions o;
   o.domain_id = cl.domain;
   o.robot_id = robot;
+  o.watch = std::move(watch);
   return o;
 }
 
@@ -181,7 +184,7 @@ std::string pad(std::string text, size_t width) {
 int command_status(const CommandLine& cl) {
   const std::string robot = cl.arguments.empty() ? "" : cl.arguments[0];
   const double timeout_s = cl.timeout_s.value_or(2.0);
-  Client client(client_options(cl, ""));
+  Client client(client_options(cl, "", {robot.empty() ? "*" : robot}));
   // Transient-local statuses arrive right after discovery; wait for all of them until the
   // timeout, or only until the one robot asked for has reported.
   std::mutex mutex;
@@ -300,7 +303,7 @@ int command_watch(const CommandLine& cl) {
   std::mutex mutex;
   std::condition_variable arrived;
   std::deque<PoseUpdate> queue;
-  Client client(client_options(cl, ""));
+  Client client(client_options(cl, "", {robot}));
   client.on_pose(
       [&](const PoseUpdate& p) {
         std::lock_guard<std::mutex> lock(mutex);

@@ -24,8 +24,8 @@ constexpr int kDomain = 80;
 TEST(CeilingPfOverDds, TracksFromCameraFramesAndRejectsABadFrame) {
   locd::test::TestServer server("ceiling_pf_dds", kDomain);
   locd::test::RobotSide robot(kDomain, "hall_bot", server.process());
-  locd::dds::Writer<locd_msg_Odometry> odometry(robot.participant(), locd::topics::kOdometry, QosProfile::kSensor, 64);
-  locd::dds::Writer<locd_msg_Image> images(robot.participant(), locd::topics::kImage, QosProfile::kSensor, 16);
+  locd::dds::Writer<locd_msg_Odometry> odometry(robot.participant(), locd::topics::kOdometry, QosProfile::kSensor, 64, robot.partition());
+  locd::dds::Writer<locd_msg_Image> images(robot.participant(), locd::topics::kImage, QosProfile::kSensor, 16, robot.partition());
   size_t diagnostics_with_particles = 0;
   std::string diagnostics_plugin;
   locd::dds::Reader<locd_msg_Diagnostics> diagnostics(
@@ -33,8 +33,8 @@ TEST(CeilingPfOverDds, TracksFromCameraFramesAndRejectsABadFrame) {
         std::lock_guard<std::mutex> lock(robot.mutex());
         if (m.particles._length > 0) ++diagnostics_with_particles;
         diagnostics_plugin = locd::dds::to_string(m.plugin);
-      }, 64);
-  ASSERT_TRUE(robot.wait_matched(odometry, images, diagnostics));
+      }, 64, robot.partition());
+  ASSERT_TRUE(robot.wait_matched(odometry, images));
 
   // The world of the scenario, the shipped plugin config with the start pose added.
   const locd::Params scenario = locd::Params::load_file(locd::test::source_dir() + "/config/scenarios/ceiling_hall.yaml");

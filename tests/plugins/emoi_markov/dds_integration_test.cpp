@@ -43,9 +43,9 @@ TEST(EmoiMarkovOverDds, LocalizesFromScansAndRejectsABadScan) {
 
 
   locd::test::RobotSide robot(kDomain, "dsm_bot", server.process(), 60s);
-  locd::dds::Writer<locd_msg_Odometry> odometry(robot.participant(), locd::topics::kOdometry, QosProfile::kSensor, 256);
-  locd::dds::Writer<locd_msg_Imu> imu(robot.participant(), locd::topics::kImu, QosProfile::kSensor, 256);
-  locd::dds::Writer<locd_msg_LaserScan> scans(robot.participant(), locd::topics::kScan, QosProfile::kSensor, 64);
+  locd::dds::Writer<locd_msg_Odometry> odometry(robot.participant(), locd::topics::kOdometry, QosProfile::kSensor, 256, robot.partition());
+  locd::dds::Writer<locd_msg_Imu> imu(robot.participant(), locd::topics::kImu, QosProfile::kSensor, 256, robot.partition());
+  locd::dds::Writer<locd_msg_LaserScan> scans(robot.participant(), locd::topics::kScan, QosProfile::kSensor, 64, robot.partition());
   size_t belief_grids = 0;
   uint32_t belief_width = 0;
   double belief_sum = 0.0;
@@ -60,7 +60,7 @@ TEST(EmoiMarkovOverDds, LocalizesFromScansAndRejectsABadScan) {
         ++belief_grids;
         belief_width = m.width;
         belief_sum = sum;
-      });
+      }, 8, robot.partition());
   locd::dds::Reader<locd_msg_Diagnostics> diagnostics(
       robot.participant(), locd::topics::kDiagnostics, QosProfile::kSensor, [&](const locd_msg_Diagnostics& m) {
         std::lock_guard<std::mutex> lock(robot.mutex());
@@ -68,8 +68,8 @@ TEST(EmoiMarkovOverDds, LocalizesFromScansAndRejectsABadScan) {
           if (locd::dds::to_string(m.values._buffer[i].name) == "coverage_r3") ++diagnostics_with_coverage;
         }
         diagnostics_plugin = locd::dds::to_string(m.plugin);
-      }, 64);
-  ASSERT_TRUE(robot.wait_matched(odometry, imu, scans, grids, diagnostics));
+      }, 64, robot.partition());
+  ASSERT_TRUE(robot.wait_matched(odometry, imu, scans));
 
   const std::string config =
       "plugin: emoi_markov\nparams:\n  map: small_world.tif\n  radii_m: [3, 6]\n  cache: false\n"

@@ -31,9 +31,9 @@ void replace_line(std::string& text, const std::string& key, const std::string& 
 TEST(FeatureEkfLandmarksOverDds, TracksARoadSignDriveAndRejectsAnUnknownClass) {
   locd::test::TestServer server("feature_ekf_landmarks_dds", kDomain);
   locd::test::RobotSide robot(kDomain, "sign_car", server.process());
-  locd::dds::Writer<locd_msg_Imu> imu_writer(robot.participant(), locd::topics::kImu, QosProfile::kSensor, 256);
+  locd::dds::Writer<locd_msg_Imu> imu_writer(robot.participant(), locd::topics::kImu, QosProfile::kSensor, 256, robot.partition());
   locd::dds::Writer<locd_msg_LandmarkDetections> detections(robot.participant(), locd::topics::kDetections,
-                                                            QosProfile::kSensor, 16);
+                                                            QosProfile::kSensor, 16, robot.partition());
   size_t associated = 0, records = 0;
   std::string diagnostics_plugin;
   locd::dds::Reader<locd_msg_Diagnostics> diagnostics(
@@ -44,8 +44,8 @@ TEST(FeatureEkfLandmarksOverDds, TracksARoadSignDriveAndRejectsAnUnknownClass) {
           ++records;
           if (locd::dds::to_string(m.associations._buffer[i].feature_id).size() > 0) ++associated;
         }
-      }, 64);
-  ASSERT_TRUE(robot.wait_matched(imu_writer, detections, diagnostics));
+      }, 64, robot.partition());
+  ASSERT_TRUE(robot.wait_matched(imu_writer, detections));
 
   // The scenario's world (its database is config/maps/road_signs.csv), a 40 s drive with the
   // IMU at 100 Hz to keep the test short; the shipped config with the start filled in.

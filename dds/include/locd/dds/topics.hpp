@@ -2,7 +2,18 @@
 // README "Topics" documents each; a new topic goes here first.
 #pragma once
 
+#include <string>
+
 namespace locd::topics {
+
+// Addressing. Every per-robot topic travels in the DDS partition `robot.<robot_id>`: a robot's
+// readers receive only that robot's data, and DDS Security grants a robot identity exactly its
+// own partition. The server reads every robot with the wildcard partition and refuses a sample
+// whose robot_id is not its writer's partition. ServerInfo and server-to-server topics use the
+// default partition ("").
+inline constexpr const char* kRobotPartitionPrefix = "robot.";
+inline constexpr const char* kAllRobotsPartition = "robot.*";
+inline std::string robot_partition(const std::string& robot_id) { return kRobotPartitionPrefix + robot_id; }
 
 // Sensors, robot -> locd. Reliable, keep-last (small depth), keyed by robot_id.
 inline constexpr const char* kOdometry = "locd/odometry";

@@ -3,9 +3,16 @@
 // exploration_goal, session_status and server_info.
 // Listener callbacks convert with locd::dds::from_wire (sizes bounded by the limits before any
 // allocation) and hand over to the Server; they never block.
+//
+// Addressing (topics.hpp): the readers subscribe in every robot's partition (robot.*) and pass on
+// only samples whose robot_id is their writer's partition and a valid robot id; each robot's
+// outputs are written in its own partition, by writers made on first use and released, least
+// recently used first, beyond `max_robots`.
 #pragma once
 
+#include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 
 #include "locd/dds/dds.hpp"
@@ -18,7 +25,7 @@ class Server;
 
 class DdsBridge : public OutputSink {
  public:
-  DdsBridge(int domain_id, std::string server_id, const Limits& limits, Logger& logger);
+  DdsBridge(int domain_id, std::string server_id, const Limits& limits, Logger& logger, size_t max_robots);
   ~DdsBridge() override;
 
   // Creates the readers; from now on listener threads call into `server`.
@@ -33,18 +40,19 @@ class DdsBridge : public OutputSink {
 
  private:
   struct Readers;
+  struct RobotWriters;
+  // The writers of one robot's partition (made if needed), marked as just used.
+  std::shared_ptr<RobotWriters> writers_for(const std::string& robot_id);
+
   std::string server_id_;  // stamped on every status
   Limits limits_;
   Logger& logger_;
+  size_t max_robots_;
   dds::Participant participant_;
-  dds::Writer<locd_msg_PoseEstimate> pose_;
-  dds::Writer<locd_msg_Diagnostics> diagnostics_;
-  dds::Writer<locd_msg_GridMap> grid_;
-  dds::Writer<locd_msg_PointCloudMap> map_cloud_;
-  dds::Writer<locd_msg_LandmarkMap> landmark_map_;
-  dds::Writer<locd_msg_ExplorationGoal> exploration_goal_;
-  dds::Writer<locd_msg_SessionStatus> status_;
   dds::Writer<locd_msg_ServerInfo> server_info_;
+  std::mutex writers_mutex_;
+  std::map<std::string, std::shared_ptr<RobotWriters>> robot_writers_;
+  uint64_t use_counter_ = 0;
   std::unique_ptr<Readers> readers_;
 };
 

@@ -1,6 +1,7 @@
 // One line per event on stderr:
 //   2026-11-21T23:40:01.123Z info [robot1] session started: plugin feature_ekf
-// Thread-safe; lines below the configured level are skipped.
+// Thread-safe; lines below the configured level are skipped. Subject and message are escaped
+// (locd/sdk/text.hpp): a newline in a robot id or a YAML value cannot forge a log line.
 #pragma once
 
 #include <atomic>

@@ -42,6 +42,11 @@ class Server {
   void on_bad_input(const std::string& robot_id, const std::string& topic, const std::string& error);
   void on_initial_pose(const std::string& robot_id, const PoseEstimate& pose);
   void on_map_save_request(const std::string& robot_id, uint64_t request_id);
+  // A sample whose robot id is not allowed (robot_id.hpp), or that came from a writer outside any
+  // valid robot's partition: counted and logged (escaped, at most once a second); nothing is kept
+  // for it.
+  void on_invalid_robot_id(const std::string& topic, const std::string& error);
+  uint64_t messages_refused_for_robot_id() const;
 
   void publish_all_status();
   ServerInfoReport info() const;
@@ -78,6 +83,9 @@ class Server {
   };
   std::map<std::string, Unserved> unserved_;  // robots sending without a session
   uint64_t messages_without_session_ = 0;
+  uint64_t refused_robot_ids_ = 0;
+  uint64_t refused_robot_ids_not_logged_ = 0;
+  std::chrono::steady_clock::time_point last_refusal_log_{};
 };
 
 }  // namespace locd::server

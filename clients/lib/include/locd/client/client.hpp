@@ -64,8 +64,14 @@ struct ServerInfo {
 
 struct ClientOptions {
   uint32_t domain_id = 0;
-  std::string robot_id;    // the robot this client publishes for; may be empty for pure watchers
+  // The robot this client publishes for (1-64 characters of [A-Za-z0-9_.-]); may be empty for
+  // pure watchers. Everything it publishes travels in the robot's DDS partition robot.<robot_id>.
+  std::string robot_id;
   int sensor_depth = 8;    // keep-last depth of the sensor writers
+  // Robots whose pose, status and goals this client receives. Empty: its own robot only, or every
+  // robot when robot_id is empty too. {"*"}: every robot. A reader receives only the robots it
+  // names, so N robots each watching themselves cost O(N) traffic, not O(N^2).
+  std::vector<std::string> watch;
 };
 
 class Client {
@@ -116,13 +122,13 @@ class Client {
   bool wait_for_delivery(std::chrono::milliseconds timeout);
 
   // Callbacks run on a DDS listener thread: copy what you need and return quickly.
-  // robot_filter empty = every robot.
+  // robot_filter empty = every robot the client watches (ClientOptions::watch).
   void on_pose(std::function<void(const PoseUpdate&)> callback, const std::string& robot_filter = "");
   void on_status(std::function<void(const SessionStatus&)> callback, const std::string& robot_filter = "");
   void on_exploration_goal(std::function<void(const ExplorationGoalUpdate&)> callback,
                            const std::string& robot_filter = "");
 
-  // Latest status per robot seen so far (transient-local: includes robots started earlier).
+  // Latest status per watched robot seen so far (transient-local: includes robots started earlier).
   std::vector<SessionStatus> statuses() const;
   std::vector<ServerInfo> servers() const;
 
