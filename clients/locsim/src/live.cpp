@@ -170,15 +170,7 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
               << "' (see `locctl status " << scenario.robot.id << "`)\n";
     return 1;
   }
-  if (options.json) {
-    write_json(std::cout, result);
-  } else {
-    write_summary(std::cout, result);
-  }
-  if (!options.plot_file.empty()) {
-    plot_run(options.plot_file, scenario.map, result);
-    log << "plot: " << options.plot_file << std::endl;
-  }
+  report_run(result, scenario.map, options.json, options.plot_file);
   return 0;
 }
 

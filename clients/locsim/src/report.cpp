@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <iomanip>
+#include <iostream>
 #include <optional>
 #include <sstream>
 
@@ -42,6 +43,17 @@ void write_json(std::ostream& out, const RunResult& r) {
     json["overhead_ms_p99"] = optional(s.overhead_ms_p99);
   }
   out << json.dump() << "\n";
+}
+
+void report_run(const RunResult& result, const FeatureMap2D& map, bool json, const std::string& plot_file) {
+  if (json) {
+    write_json(std::cout, result);
+  } else {
+    write_summary(std::cout, result);
+  }
+  if (plot_file.empty()) return;
+  plot_run(plot_file, map, result);
+  (json ? std::cerr : std::cout) << "plot: " << plot_file << std::endl;
 }
 
 void write_summary(std::ostream& out, const RunResult& r) {

@@ -43,15 +43,7 @@ int road_signs_montecarlo(const Command& c, int runs) {
 int segment_world_run(const Command& c) {
   const Scenario scenario = load_scenario(c.scenario_file);
   const RunResult result = run_offline(scenario, OfflineRunOptions{c.plugin_directories, c.seed, c.duration_s});
-  if (c.json) {
-    write_json(std::cout, result);
-  } else {
-    write_summary(std::cout, result);
-  }
-  if (!c.plot_file.empty()) {
-    plot_run(c.plot_file, scenario.map, result);
-    log_stream(c) << "plot: " << c.plot_file << "\n";
-  }
+  report_run(result, scenario.map, c.json, c.plot_file);
   return result.summary.updates > 0 ? 0 : 1;
 }
 

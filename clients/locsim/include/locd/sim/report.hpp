@@ -11,6 +11,9 @@
 namespace locd::sim {
 
 void write_json(std::ostream& out, const RunResult& result);
+// What `locsim run` and `live` print at the end: the JSON object (json) or the summary on stdout,
+// and with a plot file the plot, named on stderr (json) or stdout.
+void report_run(const RunResult& result, const FeatureMap2D& map, bool json, const std::string& plot_file);
 void write_summary(std::ostream& out, const RunResult& result);
 
 // Draws the map's walls, the truth path (green), the estimates (red), the start, a scale bar and
