@@ -36,6 +36,16 @@ std::vector<std::string> kind_names(uint32_t mask) {
   return names;
 }
 
+const char* localization_state_name(LocalizationState state) {
+  switch (state) {
+    case LocalizationState::kUnknown: return "unknown";
+    case LocalizationState::kTracking: return "tracking";
+    case LocalizationState::kUncertain: return "uncertain";
+    case LocalizationState::kLost: return "lost";
+  }
+  return "unknown";
+}
+
 const Header& header_of(const Measurement& m) {
   return std::visit([](const auto& v) -> const Header& { return v.header; }, m);
 }

@@ -31,8 +31,20 @@ locd_msg_SessionState wire_state(SessionState state) {
     case SessionState::kStopped: return locd_msg_STATE_STOPPED;
     case SessionState::kError: return locd_msg_STATE_ERROR;
     case SessionState::kNoSession: return locd_msg_STATE_NO_SESSION;
+    case SessionState::kRestarting: return locd_msg_STATE_RESTARTING;
+    case SessionState::kFailed: return locd_msg_STATE_FAILED;
   }
   return locd_msg_STATE_ERROR;
+}
+
+locd_msg_LocalizationState wire_localization(LocalizationState state) {
+  switch (state) {
+    case LocalizationState::kUnknown: return locd_msg_LOCALIZATION_UNKNOWN;
+    case LocalizationState::kTracking: return locd_msg_LOCALIZATION_TRACKING;
+    case LocalizationState::kUncertain: return locd_msg_LOCALIZATION_UNCERTAIN;
+    case LocalizationState::kLost: return locd_msg_LOCALIZATION_LOST;
+  }
+  return locd_msg_LOCALIZATION_UNKNOWN;
 }
 
 Odometry convert(const locd_msg_Odometry& m, const Limits&) { return dds::from_wire(m); }
@@ -232,6 +244,9 @@ void DdsBridge::publish_status(const SessionStatusReport& s) {
   wire->updates = s.counters.updates;
   wire->last_update_ms = s.counters.last_update_ms;
   wire->initial_pose_stamp_ns = s.initial_pose_stamp_ns;
+  wire->failures = s.failures;
+  wire->localization = wire_localization(s.localization.state);
+  copy_truncated(wire->localization_reason, s.localization.reason);
   writers_for(s.robot_id)->status.write(*wire);
 }
 

@@ -28,6 +28,8 @@ const char* session_state_name(SessionState state) {
     case SessionState::kStopped: return "stopped";
     case SessionState::kError: return "error";
     case SessionState::kNoSession: return "no_session";
+    case SessionState::kRestarting: return "restarting";
+    case SessionState::kFailed: return "failed";
   }
   return "error";
 }
@@ -338,6 +340,7 @@ SessionStatusReport Session::status() const {
   s.last_error = last_error_;
   s.counters = counters_;
   s.initial_pose_stamp_ns = initial_pose_stamp_ns_;
+  s.localization = localization_;
   return s;
 }
 
@@ -425,10 +428,15 @@ void Session::process(Measurement& measurement) {
     publish_status();
     return;
   }
+  bool localization_changed = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     ++counters_.used;
     counters_.last_update_ms = update_ms;
+    if (result.localization) {
+      localization_changed = result.localization->state != localization_.state;
+      localization_ = *result.localization;
+    }
     if (result.estimate) {
       result.estimate->header.stamp_ns = header.stamp_ns;
       if (result.estimate->header.frame_id.empty()) result.estimate->header.frame_id = "map";
@@ -440,6 +448,12 @@ void Session::process(Measurement& measurement) {
     sink_.publish_outputs(robot_id_, plugin, map_header(header.stamp_ns), result, update_ms);
   } catch (const std::exception& e) {
     log(LogLevel::kError, std::string("outputs not published: ") + e.what());
+  }
+  if (localization_changed) {
+    // A robot acts on "lost" at once, not at the next periodic status.
+    log(LogLevel::kInfo, std::string("localization ") + localization_state_name(result.localization->state) + ": " +
+                             result.localization->reason);
+    publish_status();
   }
 }
 

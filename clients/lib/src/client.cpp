@@ -35,6 +35,18 @@ std::string state_name(locd_msg_SessionState state) {
     case locd_msg_STATE_STOPPED: return "stopped";
     case locd_msg_STATE_ERROR: return "error";
     case locd_msg_STATE_NO_SESSION: return "no_session";
+    case locd_msg_STATE_RESTARTING: return "restarting";
+    case locd_msg_STATE_FAILED: return "failed";
+  }
+  return "unknown(" + std::to_string(static_cast<int>(state)) + ")";
+}
+
+std::string localization_name(locd_msg_LocalizationState state) {
+  switch (state) {
+    case locd_msg_LOCALIZATION_UNKNOWN: return localization_state_name(LocalizationState::kUnknown);
+    case locd_msg_LOCALIZATION_TRACKING: return localization_state_name(LocalizationState::kTracking);
+    case locd_msg_LOCALIZATION_UNCERTAIN: return localization_state_name(LocalizationState::kUncertain);
+    case locd_msg_LOCALIZATION_LOST: return localization_state_name(LocalizationState::kLost);
   }
   return "unknown(" + std::to_string(static_cast<int>(state)) + ")";
 }
@@ -107,6 +119,9 @@ SessionStatus status_from_wire(const locd_msg_SessionStatus& m) {
   s.updates = m.updates;
   s.last_update_ms = m.last_update_ms;
   s.initial_pose_stamp_ns = m.initial_pose_stamp_ns;
+  s.failures = m.failures;
+  s.localization = localization_name(m.localization);
+  s.localization_reason = dds::to_string(m.localization_reason);
   s.stamp_ns = m.header.stamp_ns;
   return s;
 }

@@ -89,6 +89,9 @@ Json status_json(const SessionStatus& s) {
           {"rejected", s.rejected},
           {"updates", s.updates},
           {"last_update_ms", s.last_update_ms},
+          {"failures", s.failures},
+          {"localization", s.localization},
+          {"localization_reason", s.localization_reason},
           {"stamp_ns", s.stamp_ns}};
 }
 
@@ -230,15 +233,18 @@ int command_status(const CommandLine& cl) {
     std::cout << "no sessions on " << servers.size() << " server(s)\n";
     return 0;
   }
-  const std::vector<std::string> header = {"ROBOT", "STATE", "PLUGIN", "SERVER", "RECEIVED", "USED",
-                                           "DROPPED", "REJECTED", "UPDATES", "LAST_MS", "LAST_ERROR"};
+  // New columns go before LAST_ERROR (free text, last), so scripts reading the older ones still work.
+  const std::vector<std::string> header = {"ROBOT",   "STATE",   "PLUGIN",       "SERVER",   "RECEIVED",
+                                           "USED",    "DROPPED", "REJECTED",     "UPDATES",  "LAST_MS",
+                                           "LOCALIZATION", "FAILURES", "LAST_ERROR"};
   std::vector<std::vector<std::string>> rows = {header};
   for (const auto& s : statuses) {
     char last_ms[32];
     std::snprintf(last_ms, sizeof(last_ms), "%.3f", s.last_update_ms);
     rows.push_back({s.robot_id, s.state, s.plugin.empty() ? "-" : s.plugin, s.server_id, std::to_string(s.received),
                     std::to_string(s.used), std::to_string(s.dropped), std::to_string(s.rejected),
-                    std::to_string(s.updates), last_ms, s.last_error.empty() ? "-" : s.last_error});
+                    std::to_string(s.updates), last_ms, s.localization, std::to_string(s.failures),
+                    s.last_error.empty() ? "-" : s.last_error});
   }
   std::vector<size_t> widths(header.size(), 0);
   for (const auto& row : rows) {

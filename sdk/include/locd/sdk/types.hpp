@@ -152,6 +152,22 @@ struct ExplorationGoal {
   bool done = false;
 };
 
+// A plugin's own judgement of its estimate, published on the status topic. Each plugin's README
+// documents its criteria (innovation statistics, effective sample size, belief modes, registration
+// residual and conditioning).
+enum class LocalizationState {
+  kUnknown,    // the plugin does not judge
+  kTracking,   // pose and covariance can be used
+  kUncertain,  // several hypotheses, or a covariance the plugin cannot vouch for
+  kLost,       // do not use the pose
+};
+const char* localization_state_name(LocalizationState state);  // "unknown", "tracking", ...
+
+struct LocalizationAssessment {
+  LocalizationState state = LocalizationState::kUnknown;
+  std::string reason;  // the criterion that decided it, e.g. "effective sample size 3 % < 10 %"
+};
+
 // What one update returns. A plugin sets estimate when it has a pose to publish
 // (e.g. a filter that only predicted on odometry may leave it empty to save bandwidth).
 struct UpdateResult {
@@ -161,6 +177,7 @@ struct UpdateResult {
   std::optional<PointCloud> map_cloud;           // registered map, map frame
   std::optional<std::vector<MapFeature>> landmark_map;
   std::optional<ExplorationGoal> exploration_goal;  // exploring plugins only
+  std::optional<LocalizationAssessment> localization;  // set when the plugin judged this update
 };
 
 }  // namespace locd

@@ -9,7 +9,9 @@
 
 namespace locd::server {
 
-enum class SessionState { kStarting, kRunning, kStopped, kError, kNoSession };
+// kRestarting: the plugin failed and is being restarted from the robot's last pose; kFailed: it
+// failed max_failures times and was stopped.
+enum class SessionState { kStarting, kRunning, kStopped, kError, kNoSession, kRestarting, kFailed };
 const char* session_state_name(SessionState state);
 
 struct SessionCounters {
@@ -33,6 +35,8 @@ struct SessionStatusReport {
   std::string last_error;  // last rejected input or failure
   SessionCounters counters;
   int64_t initial_pose_stamp_ns = 0;  // stamp of the last initial pose the plugin holds (0 = none)
+  uint32_t failures = 0;              // plugin failures (crash, exit, hang, bad output)
+  LocalizationAssessment localization;  // from the plugin's last update that judged it
 };
 
 struct ServerInfoReport {

@@ -108,6 +108,7 @@ class Session : public std::enable_shared_from_this<Session> {
   std::string last_error_;
   std::optional<PoseEstimate> last_pose_;
   int64_t initial_pose_stamp_ns_ = 0;  // last initial pose the plugin holds
+  LocalizationAssessment localization_;  // from the plugin's last judged update
   uint64_t latest_generation_ = 0;
   bool stopped_ = false;
 

@@ -24,7 +24,7 @@ namespace locd {
 struct SessionStatus {
   std::string robot_id;
   std::string server_id;
-  std::string state;  // "starting", "running", "stopped", "error", "no_session"
+  std::string state;  // "starting", "running", "stopped", "error", "no_session", "restarting", "failed"
   std::string plugin;
   uint64_t request_id = 0;
   bool request_ok = false;
@@ -33,6 +33,9 @@ struct SessionStatus {
   uint64_t received = 0, used = 0, dropped = 0, rejected = 0, updates = 0;
   double last_update_ms = 0.0;
   int64_t initial_pose_stamp_ns = 0;  // stamp of the last initial pose the plugin holds (0 = none)
+  uint32_t failures = 0;              // plugin failures (crash, exit, hang, bad output)
+  std::string localization = "unknown";  // "unknown", "tracking", "uncertain", "lost"
+  std::string localization_reason;       // the plugin's criterion
   int64_t stamp_ns = 0;
 };
 
