@@ -1,5 +1,6 @@
 #include "locd/sdk/plugin_config.hpp"
 
+#include <cstdlib>
 #include <regex>
 
 namespace locd {
@@ -29,6 +30,33 @@ PluginConfig split_plugin_config(const Params& document, const std::string& sour
 
 PluginConfig split_plugin_config(const std::string& yaml_text, const std::string& source_name) {
   return split_plugin_config(Params::parse(yaml_text, source_name), source_name);
+}
+
+PluginConfig split_plugin_config(const PluginConfigText& text) {
+  if (text.path.empty()) return split_plugin_config(text.yaml, text.source);
+  Params node = Params::parse(text.yaml, text.source);
+  // Walks the keys as the server's config parser named them: "sessions[2].config".
+  std::string name;
+  for (const auto& key : text.path) {
+    YAML::Node child;
+    if (node.node().IsSequence()) {
+      char* end = nullptr;
+      const unsigned long index = std::strtoul(key.c_str(), &end, 10);
+      if (key.empty() || *end != '\0' || index >= node.node().size()) {
+        throw ConfigError(text.source + ": no entry " + key + " under '" + name + "'");
+      }
+      child = node.node()[index];
+      name += "[" + key + "]";
+    } else if (node.node().IsMap() && node.node()[key]) {
+      child = node.node()[key];
+      name += (name.empty() ? "" : ".") + key;
+    } else {
+      throw ConfigError(text.source + ": no key '" + key + "' under '" + name + "'");
+    }
+    node = Params(child, name);
+  }
+  if (!node.node().IsMap()) throw ConfigError(text.source + ": '" + name + "' is not a map; expected 'plugin: <name>' and 'params:'");
+  return split_plugin_config(node, text.source);
 }
 
 }  // namespace locd

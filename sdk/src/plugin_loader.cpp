@@ -151,36 +151,42 @@ std::shared_ptr<const PluginLibrary> PluginCatalog::find(const std::string& name
   return it == plugins_.end() ? nullptr : it->second;
 }
 
-LocalizerPtr PluginCatalog::create(const std::string& name) const {
+std::shared_ptr<const PluginLibrary> PluginCatalog::require(const std::string& name) const {
   auto library = find(name);
   if (!library) {
     std::string known;
     for (const auto& n : names()) known += (known.empty() ? "" : ", ") + n;
     throw ConfigError("unknown plugin '" + name + "'; known plugins: " + (known.empty() ? "(none)" : known));
   }
-  return library->create();
+  return library;
 }
 
-LocalizerPtr create_configured(const PluginCatalog& catalog, const std::string& plugin,
-                               const PluginContext& context, const Params& params) {
+LocalizerPtr PluginCatalog::create(const std::string& name) const { return require(name)->create(); }
+
+LocalizerPtr create_configured(const PluginLibrary& library, const PluginContext& context, const Params& params) {
   LocalizerPtr instance;
   try {
-    instance = catalog.create(plugin);
+    instance = library.create();
   } catch (const PluginLoadError& e) {
     throw ConfigError(e.what());
   }
+  const std::string plugin = library.name();
   try {
     instance->configure(context, params);
   } catch (const ConfigError&) {
     throw;
   } catch (const std::exception& e) {
-    throw ConfigError("plugin '" + plugin + "' (" + catalog.find(plugin)->file().string() +
-                      ") failed to configure: " + e.what());
+    throw ConfigError("plugin '" + plugin + "' (" + library.file().string() + ") failed to configure: " + e.what());
   } catch (...) {
-    throw ConfigError("plugin '" + plugin + "' (" + catalog.find(plugin)->file().string() +
+    throw ConfigError("plugin '" + plugin + "' (" + library.file().string() +
                       ") failed to configure with a non-standard exception");
   }
   return instance;
+}
+
+LocalizerPtr create_configured(const PluginCatalog& catalog, const std::string& plugin,
+                               const PluginContext& context, const Params& params) {
+  return create_configured(*catalog.require(plugin), context, params);
 }
 
 }  // namespace locd

@@ -1,5 +1,8 @@
 #include "locd/sdk/validate.hpp"
 
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -94,6 +97,31 @@ void validate(const LandmarkDetections& frame) {
 
 void validate(const Measurement& measurement) {
   std::visit([](const auto& m) { validate(m); }, measurement);
+}
+
+void validate(const PoseEstimate& estimate) {
+  // Tolerances for a rotation that went through float arithmetic, and for rounding in a
+  // covariance: relative to its largest entry (at least 1).
+  constexpr double kRotationTolerance = 1e-6;
+  constexpr double kCovarianceTolerance = 1e-9;
+  if (!finite(estimate.pose)) throw InputError("estimate: pose has a NaN or infinite component");
+  const Eigen::Matrix3d R = estimate.pose.linear();
+  if ((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > kRotationTolerance ||
+      R.determinant() < 0.0) {
+    throw InputError("estimate: the pose's rotation is not a rotation (not orthonormal with determinant 1)");
+  }
+  const Matrix6d& C = estimate.covariance;
+  if (!C.allFinite()) throw InputError("estimate: covariance has a NaN or infinite entry");
+  const double scale = std::max(1.0, C.cwiseAbs().maxCoeff());
+  if ((C - C.transpose()).cwiseAbs().maxCoeff() > kCovarianceTolerance * scale) {
+    throw InputError("estimate: covariance is not symmetric");
+  }
+  const double smallest = Eigen::SelfAdjointEigenSolver<Matrix6d>(C, Eigen::EigenvaluesOnly).eigenvalues()(0);
+  if (smallest < -kCovarianceTolerance * scale) {
+    throw InputError("estimate: covariance is not positive semi-definite (smallest eigenvalue " +
+                     std::to_string(smallest) + ")");
+  }
+  if (!estimate.linear_velocity.allFinite()) throw InputError("estimate: velocity is NaN or infinite");
 }
 
 }  // namespace locd

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -53,6 +54,10 @@ struct Options {
 // Robots without a session the bridge keeps status writers for (their "no session" answers),
 // beyond max_sessions; the least recently answered go first.
 constexpr size_t kUnservedRobotsWithWriters = 256;
+
+// At shutdown, how long plugin workers get to exit before they are killed (a hung plugin never
+// exits): SIGTERM completes well within 2 s.
+constexpr std::chrono::milliseconds kWorkerExitGrace{500};
 
 int signal_pipe[2] = {-1, -1};
 
@@ -177,6 +182,14 @@ int run(const Options& o) {
   sigaction(SIGINT, &action, nullptr);
   sigaction(SIGTERM, &action, nullptr);
 
+  std::error_code ec;
+  if (!fs::is_regular_file(config.plugin_workers.executable, ec)) {
+    logger.log(LogLevel::kError, "server",
+               "plugin worker '" + config.plugin_workers.executable.string() +
+                   "' not found: plugins run in locd-worker processes; install it next to locd or set "
+                   "plugin_workers.executable");
+    return 1;
+  }
   const PluginCatalog catalog(config.plugin_directories);
   for (const auto& name : catalog.names()) {
     logger.log(LogLevel::kInfo, "server", "plugin " + name + " " + catalog.find(name)->descriptor().version + " from " +
@@ -207,11 +220,15 @@ int run(const Options& o) {
         logger.log(LogLevel::kError, "server", std::string("poll: ") + std::strerror(errno));
         break;
       }
-      if (ready == 0) server.publish_all_status();
+      if (ready == 0) {
+        server.publish_all_status();
+        server.save_state();
+      }
     }
     logger.log(LogLevel::kInfo, "server", "shutting down: stopping readers, then workers");
     bridge.disconnect();
-    server.shutdown();
+    server.save_state();
+    server.shutdown(kWorkerExitGrace);
   } catch (const std::exception& e) {
     logger.log(LogLevel::kError, "server", e.what());
     return 1;

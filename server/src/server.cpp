@@ -1,5 +1,7 @@
 #include "locd/server/server.hpp"
 
+#include <chrono>
+
 #include "locd/dds/topics.hpp"
 #include "locd/sdk/robot_id.hpp"
 
@@ -11,16 +13,50 @@ constexpr size_t kMaxUnservedRobots = 4096;  // bounds the memory a flood of rob
 
 }  // namespace
 
+namespace {
+
+// Unclaimed resume states of the last run (robots that have not come back) are kept in the state
+// file this long, so a server that restarts again soon loses none of them.
+constexpr auto kKeepUnclaimedStatesFor = std::chrono::minutes(10);
+
+worker::ConfigureRequest configure_template(const ServerConfig& config) {
+  worker::ConfigureRequest request;
+  request.limits = config.limits;
+  for (const auto& dir : config.map_directories) request.map_directories.push_back(dir.string());
+  request.output_directory = config.output_directory.string();
+  return request;
+}
+
+}  // namespace
+
 Server::Server(ServerConfig config, const PluginCatalog& catalog, OutputSink& sink, Logger& logger)
     : config_(std::move(config)), catalog_(catalog), sink_(sink), logger_(logger),
-      pool_(static_cast<size_t>(config_.workers)), started_ns_(wall_clock_ns()) {
+      pool_(static_cast<size_t>(config_.workers)), workers_(config_.plugin_workers, config_.limits, logger_),
+      environment_{workers_, pool_, sink_, static_cast<size_t>(config_.queue_depth), config_.failures,
+                   configure_template(config_), nullptr},
+      state_file_(config_.state_directory), started_ns_(wall_clock_ns()), started_(std::chrono::steady_clock::now()) {
   pool_.on_task_error([this](const std::string& what) { logger_.log(LogLevel::kError, "server", "task failed: " + what); });
+  environment_.forget = [this](const std::shared_ptr<Session>& session) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = sessions_.find(session->robot_id());
+    if (it != sessions_.end() && it->second == session) sessions_.erase(it);
+  };
+  saved_ = state_file_.load(logger_);
+  if (state_file_.enabled()) {
+    logger_.log(LogLevel::kInfo, "server",
+                "state file " + state_file_.file().string() + ": " + std::to_string(saved_.size()) +
+                    " robots to resume from their last pose");
+  } else {
+    logger_.log(LogLevel::kInfo, "server",
+                "no state_directory: after a restart of this server, sessions start from the robots' initial poses");
+  }
 }
 
 Server::~Server() { shutdown(); }
 
-void Server::shutdown() {
+void Server::shutdown(std::chrono::milliseconds grace) {
   pool_.shutdown();
+  workers_.shutdown(grace);
   std::map<std::string, std::shared_ptr<Session>> sessions;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -29,15 +65,26 @@ void Server::shutdown() {
   sessions.clear();
 }
 
-PluginContext Server::context_for(const std::string& robot_id) {
-  PluginContext context;
-  context.robot_id = robot_id;
-  context.limits = config_.limits;
-  context.maps = MapResolver(config_.map_directories);
-  context.output_directory = config_.output_directory;
-  Logger* logger = &logger_;
-  context.log = [logger, robot_id](LogLevel level, const std::string& message) { logger->log(level, robot_id, message); };
-  return context;
+void Server::save_state() {
+  if (!state_file_.enabled()) return;
+  std::map<std::string, ResumeState> states;
+  std::vector<std::shared_ptr<Session>> sessions;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (std::chrono::steady_clock::now() - started_ < kKeepUnclaimedStatesFor) states = saved_;
+    for (const auto& [_, session] : sessions_) sessions.push_back(session);
+  }
+  for (const auto& session : sessions) {
+    if (auto state = session->resume_state()) states[session->robot_id()] = std::move(*state);
+  }
+  const std::string text = StateFile::encode(states);
+  if (text == last_saved_) return;
+  try {
+    state_file_.write(text);
+    last_saved_ = text;
+  } catch (const std::exception& e) {
+    logger_.log(LogLevel::kError, "server", std::string("state not saved: ") + e.what());
+  }
 }
 
 ServerInfoReport Server::info() const {
@@ -75,11 +122,8 @@ void Server::boot() {
       pose.pose = Eigen::Translation3d(p[0], p[1], 0.0) * Eigen::AngleAxisd(p[2], Eigen::Vector3d::UnitZ());
       session->set_pose(pose);
     }
-    const BootSession copy = boot;
-    pool_.post([this, session, generation, copy] {
-      start_plugin(session, generation, 0, copy.config, copy.source);
-    });
     logger_.log(LogLevel::kInfo, boot.robot_id, "boot session: plugin " + boot.config.plugin + " from " + boot.source);
+    start_plugin(session, generation, 0, boot.config.plugin, boot.text, boot.source);
   }
 }
 
@@ -87,11 +131,14 @@ std::shared_ptr<Session> Server::create_session_locked(const std::string& robot_
   auto& slot = sessions_[robot_id];
   if (!slot) {
     Logger* logger = &logger_;
-    slot = std::make_shared<Session>(robot_id, pool_, sink_, static_cast<size_t>(config_.queue_depth),
-                                     [logger, robot_id](LogLevel level, const std::string& message) {
-                                       logger->log(level, robot_id, message);
-                                     });
+    slot = std::make_shared<Session>(robot_id, environment_, [logger, robot_id](LogLevel level, const std::string& message) {
+      logger->log(level, robot_id, message);
+    });
     unserved_.erase(robot_id);
+    if (auto saved = saved_.find(robot_id); saved != saved_.end()) {
+      slot->seed(saved->second);
+      saved_.erase(saved);
+    }
   }
   return slot;
 }
@@ -179,20 +226,29 @@ void Server::handle_start(const std::shared_ptr<Session>& session, uint64_t gene
     session->publish_status();
     return;
   }
-  start_plugin(session, generation, request.request_id, config, source);
+  if (session->failed_before_restart(request.request_id)) {
+    session->refuse_failed_request(request.request_id,
+                                   source + ": its plugin failed max_failures = " +
+                                       std::to_string(config_.failures.max_failures) +
+                                       " times in a row before the server restarted; not started again (send a new "
+                                       "request)");
+    return;
+  }
+  start_plugin(session, generation, request.request_id, config.plugin, PluginConfigText{request.config_yaml, source, {}},
+               source);
 }
 
 void Server::start_plugin(const std::shared_ptr<Session>& session, uint64_t generation, uint64_t request_id,
-                          const PluginConfig& config, const std::string& source) {
+                          const std::string& plugin, const PluginConfigText& text, const std::string& source) {
+  std::shared_ptr<const PluginLibrary> library;
   try {
-    LocalizerPtr localizer = create_configured(catalog_, config.plugin, context_for(session->robot_id()), config.params);
-    const auto library = catalog_.find(config.plugin);
-    session->install(generation, request_id, std::move(localizer), config.plugin,
-                     "plugin " + config.plugin + " " + library->descriptor().version + " configured from " + source);
+    library = catalog_.require(plugin);
   } catch (const std::exception& e) {
     if (!session->fail_request(generation, request_id, e.what())) abandon_if_failed(session, generation);
     session->publish_status();
+    return;
   }
+  session->start(generation, request_id, std::move(library), text, source);
 }
 
 void Server::abandon_if_failed(const std::shared_ptr<Session>& session, uint64_t generation) {

@@ -31,7 +31,16 @@ size_t limit(const Params& limits, const char* key, size_t default_value, long m
   return static_cast<size_t>(limits.integer(key, static_cast<long>(default_value), 1, max));
 }
 
-BootSession boot_session(const Params& entry, const std::string& source_name, const fs::path& base) {
+std::string read_text(const fs::path& file) {
+  std::ifstream in(file);
+  if (!in) throw ConfigError("cannot read config file '" + file.string() + "'");
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+BootSession boot_session(const Params& entry, size_t index, const std::string& server_yaml,
+                         const std::string& source_name, const fs::path& base) {
   entry.expect_only({"robot_id", "plugin", "config_file", "config", "initial_pose"});
   BootSession boot;
   boot.robot_id = entry.required_text("robot_id");
@@ -49,12 +58,16 @@ BootSession boot_session(const Params& entry, const std::string& source_name, co
     fs::path file(entry.required_text("config_file"));
     if (!file.is_absolute()) file = base / file;
     boot.source = file.lexically_normal().string();
-    boot.config = split_plugin_config(Params::load_file(boot.source), boot.source);
+    boot.text = {read_text(file), boot.source, {}};
+    boot.config = split_plugin_config(boot.text);
   } else {
     boot.source = source_name + " (sessions entry for robot '" + boot.robot_id + "', " + entry.where("config") + ")";
     const YAML::Node inline_config = entry.node()["config"];
     if (!inline_config.IsMap()) entry.fail("config", "is not a map; expected 'plugin: <name>' and 'params:'");
     boot.config = split_plugin_config(Params(inline_config, entry.key_path("config")), boot.source);
+    // The worker parses the server's config again and finds the entry by its keys, so its
+    // messages name the same lines.
+    boot.text = {server_yaml, source_name, {"sessions", std::to_string(index), "config"}};
   }
   const std::string plugin = entry.text("plugin", "");
   if (!plugin.empty()) {
@@ -71,7 +84,65 @@ BootSession boot_session(const Params& entry, const std::string& source_name, co
   return boot;
 }
 
+// Deadlines and sizes of the plugin_workers section (and of its per-plugin overrides).
+constexpr double kMaxDeadlineS = 86400.0;
+constexpr long kMaxSessionsPerWorker = 100000;
+
+void parse_plugin_workers(const Params& p, const fs::path& base, ServerConfig& c) {
+  p.expect_only({"executable", "sessions_per_worker", "configure_deadline_s", "update_deadline_s", "memory_limit_mb",
+                 "max_failures", "restart_backoff_s", "failure_reset_s", "plugins"});
+  WorkerSettings& w = c.plugin_workers;
+  if (p.has("executable")) {
+    const fs::path exe(p.text("executable", ""));
+    w.executable = (exe.is_absolute() ? exe : base / exe).lexically_normal();
+  } else {
+    w.executable = default_worker_executable();
+  }
+  w.sessions_per_worker = static_cast<size_t>(p.integer("sessions_per_worker", 1, 1, kMaxSessionsPerWorker));
+  w.configure_deadline_s = p.number("configure_deadline_s", w.configure_deadline_s, Range::closed(0.01, kMaxDeadlineS));
+  w.update_deadline_s = p.number("update_deadline_s", w.update_deadline_s, Range::closed(0.01, kMaxDeadlineS));
+  w.memory_limit_mb = p.integer("memory_limit_mb", w.memory_limit_mb, 0, 1L << 30);
+  if (w.memory_limit_mb > 0 && w.memory_limit_mb < 64) {
+    p.fail("memory_limit_mb", "= " + std::to_string(w.memory_limit_mb) + " is too small to load a plugin; allowed: 0 (no limit) or 64..");
+  }
+  FailurePolicy& f = c.failures;
+  f.max_failures = static_cast<uint32_t>(p.integer("max_failures", f.max_failures, 1, 1000));
+  const auto backoff = p.numbers("restart_backoff_s", {f.backoff_initial_s, f.backoff_max_s}, 2, Range::closed(0.0, 3600.0));
+  if (backoff[0] > backoff[1]) {
+    p.fail("restart_backoff_s", "= [" + std::to_string(backoff[0]) + ", " + std::to_string(backoff[1]) +
+                                    "]: the first delay exceeds the largest; expected [first, largest]");
+  }
+  f.backoff_initial_s = backoff[0];
+  f.backoff_max_s = backoff[1];
+  f.failure_reset_s = p.number("failure_reset_s", f.failure_reset_s, Range::closed(0.0, kMaxDeadlineS));
+  const Params plugins = p.child("plugins");
+  if (!plugins.node().IsMap()) p.fail("plugins", "is not a map; expected 'plugin_name: {update_deadline_s: ...}'");
+  for (const auto& item : plugins.node()) {
+    const std::string name = item.first.as<std::string>();
+    check_plugin_name(name, "plugin_workers.plugins (" + plugins.where(name) + ")");
+    const Params o = plugins.child(name);
+    o.expect_only({"sessions_per_worker", "configure_deadline_s", "update_deadline_s"});
+    WorkerSettings::Override override;
+    if (o.has("sessions_per_worker")) {
+      override.sessions_per_worker = static_cast<size_t>(o.integer("sessions_per_worker", 1, 1, kMaxSessionsPerWorker));
+    }
+    if (o.has("configure_deadline_s")) {
+      override.configure_deadline_s = o.number("configure_deadline_s", 0.0, Range::closed(0.01, kMaxDeadlineS));
+    }
+    if (o.has("update_deadline_s")) {
+      override.update_deadline_s = o.number("update_deadline_s", 0.0, Range::closed(0.01, kMaxDeadlineS));
+    }
+    w.plugins[name] = override;
+  }
+}
+
 }  // namespace
+
+fs::path default_worker_executable() {
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? fs::path("locd-worker") : self.parent_path() / "locd-worker";
+}
 
 std::string default_server_id() {
   char host[256] = {};
@@ -83,7 +154,8 @@ ServerConfig ServerConfig::parse(const std::string& yaml_text, const std::string
                                  const fs::path& base_directory) {
   const Params root = Params::parse(yaml_text, source_name);
   root.expect_only({"server_id", "domain_id", "plugin_directories", "map_directories", "output_directory", "workers",
-                    "queue_depth", "max_sessions", "status_period_s", "limits", "log_level", "sessions"});
+                    "queue_depth", "max_sessions", "status_period_s", "limits", "log_level", "sessions",
+                    "plugin_workers", "state_directory"});
   ServerConfig c;
   c.server_id = root.text("server_id", default_server_id());
   if (c.server_id.empty() || c.server_id.size() > 64) {
@@ -104,6 +176,14 @@ ServerConfig ServerConfig::parse(const std::string& yaml_text, const std::string
   c.status_period_s = root.number("status_period_s", 1.0, Range::closed(0.05, 3600.0));
   c.log_level = parse_log_level(root.text("log_level", "info", {"debug", "info", "warning", "error"}));
 
+  if (root.has("state_directory")) {
+    const fs::path dir = base_directory / root.text("state_directory", "");
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) root.fail("state_directory", "= '" + dir.string() + "' is not an existing directory");
+    c.state_directory = fs::canonical(dir, ec);
+  }
+  parse_plugin_workers(root.child("plugin_workers"), base_directory, c);
+
   const Params limits = root.child("limits");
   limits.expect_only({"max_scan_beams", "max_cloud_points", "max_image_pixels", "max_detections",
                       "max_particles", "max_map_cells"});
@@ -123,8 +203,8 @@ ServerConfig ServerConfig::parse(const std::string& yaml_text, const std::string
       if (!list[i].IsMap()) {
         root.fail("sessions", "entry " + std::to_string(i) + " is not a map; expected {robot_id, config_file | config}");
       }
-      BootSession boot = boot_session(Params(list[i], "sessions[" + std::to_string(i) + "]"), source_name,
-                                      base_directory);
+      BootSession boot = boot_session(Params(list[i], "sessions[" + std::to_string(i) + "]"), i, yaml_text,
+                                      source_name, base_directory);
       for (const auto& other : c.sessions) {
         if (other.robot_id == boot.robot_id) {
           root.fail("sessions", "names robot '" + boot.robot_id + "' twice; one session per robot");

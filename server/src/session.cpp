@@ -2,16 +2,32 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <sstream>
 
 #include "locd/dds/topics.hpp"
+#include "locd/sdk/validate.hpp"
 
 namespace locd::server {
 namespace {
 
-// Measurements one drain task handles before it yields its worker to other sessions.
-constexpr int kDrainBatch = 32;
+using Clock = std::chrono::steady_clock;
 
 Header map_header(int64_t stamp_ns) { return {stamp_ns, "map"}; }
+
+std::string stamp_text(int64_t stamp_ns) {
+  std::ostringstream out;
+  out.setf(std::ios::fixed);
+  out.precision(6);
+  out << static_cast<double>(stamp_ns) * 1e-9 << " s";
+  return out.str();
+}
+
+std::string seconds_text(double s) {
+  std::ostringstream out;
+  out << s << " s";
+  return out.str();
+}
 
 }  // namespace
 
@@ -46,9 +62,8 @@ const char* topic_of(MeasurementKind kind) {
   return "locd/unknown";
 }
 
-Session::Session(std::string robot_id, WorkerPool& pool, OutputSink& sink, size_t queue_depth, SessionLog log)
-    : robot_id_(std::move(robot_id)), pool_(pool), sink_(sink), queue_depth_(std::max<size_t>(1, queue_depth)),
-      log_(std::move(log)) {}
+Session::Session(std::string robot_id, SessionEnvironment& environment, SessionLog log)
+    : robot_id_(std::move(robot_id)), env_(environment), log_(std::move(log)) {}
 
 void Session::log(LogLevel level, const std::string& message) const {
   if (log_) log_(level, message);
@@ -58,7 +73,7 @@ void Session::log_rejection(const std::string& error) {
   std::string line;
   {
     std::lock_guard<std::mutex> lock(rejection_log_mutex_);
-    const auto now = std::chrono::steady_clock::now();
+    const auto now = Clock::now();
     if (now - rejection_window_start_ >= std::chrono::seconds(1)) {
       rejection_window_start_ = now;
       rejection_lines_in_window_ = 0;
@@ -81,6 +96,8 @@ void Session::log_rejection(const std::string& error) {
   log(LogLevel::kWarning, line);
 }
 
+// ------------------------------------------------------------------------------- input
+
 bool Session::push(Measurement measurement) {
   const size_t kind_index = measurement.index();
   const int64_t stamp = header_of(measurement).stamp_ns;
@@ -98,11 +115,12 @@ bool Session::push(Measurement measurement) {
       last_error_ = error;
     } else {
       last = stamp;
+      if (const auto* odometry = std::get_if<Odometry>(&measurement)) newest_odometry_ = *odometry;
       auto position = std::upper_bound(queue_.begin(), queue_.end(), stamp, [](int64_t s, const Measurement& m) {
         return s < header_of(m).stamp_ns;
       });
       queue_.insert(position, std::move(measurement));
-      if (queue_.size() > queue_depth_) {
+      if (queue_.size() > std::max<size_t>(1, env_.queue_depth)) {
         // The oldest sensor frame goes first: odometry and IMU carry the motion every later
         // frame is placed with, and a plugin that lost them would place frames at stale poses.
         auto victim = std::find_if(queue_.begin(), queue_.end(), [](const Measurement& m) {
@@ -114,14 +132,14 @@ bool Session::push(Measurement measurement) {
         queue_.erase(victim);
         ++counters_.dropped;
       }
-      if (localizer_) schedule_drain_locked();
+      pump_locked();
     }
   }
   if (!error.empty()) {
     log_rejection(error);
     publish_status_later();
   } else if (dropped) {
-    log(LogLevel::kDebug, "queue full (" + std::to_string(queue_depth_) + "): dropped the oldest message on " + dropped);
+    log(LogLevel::kDebug, "queue full (" + std::to_string(env_.queue_depth) + "): dropped the oldest message on " + dropped);
   }
   return true;
 }
@@ -140,115 +158,139 @@ void Session::reject_input(const std::string& error) {
 void Session::publish_status_later() {
   if (status_pending_.exchange(true)) return;
   auto self = shared_from_this();
-  pool_.post([self] {
+  env_.pool.post([self] {
     self->status_pending_ = false;  // before reading: a later rejection schedules another status
     self->publish_status();
   });
 }
 
 void Session::set_pose(const PoseEstimate& pose) {
-  auto self = shared_from_this();
-  post_control([this, self, pose] {
-    Localizer* localizer = nullptr;
-    // The initial pose counts as received and, once the plugin holds it, used; the status
-    // published here, naming its stamp, is the robot's acknowledgement that later messages meet
-    // the new pose (DDS orders samples per topic only).
-    auto hold = [&] {
-      std::lock_guard<std::mutex> lock(mutex_);
+  Publication out;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++counters_.received;
+    if (seeded_ && pose.header.stamp_ns <= seeded_->estimate.header.stamp_ns) {
+      // A transient-local replay of an initial pose older than where the robot was when the
+      // server stopped: resuming from the newer pose is right.
+      ++counters_.rejected;
+      last_error_ = "initial pose stamped " + stamp_text(pose.header.stamp_ns) +
+                    " is older than the pose resumed from the server's last run (stamped " +
+                    stamp_text(seeded_->estimate.header.stamp_ns) + "); kept the resumed pose";
+      out.log.emplace_back(LogLevel::kWarning, last_error_);
+      out.status = true;
+    } else if (!plugin_alive_locked()) {
+      // Handed to the plugin when it is installed; the robot's acknowledgement is the status
+      // naming the pose's stamp (DDS orders samples per topic only).
+      resume_ = ResumeState{pose, std::nullopt, current_ ? current_->name : "", request_id_, false};
       ++counters_.used;
       initial_pose_stamp_ns_ = pose.header.stamp_ns;
-    };
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      last_pose_ = pose;
-      localizer = localizer_.get();
-      ++counters_.received;
+      out.log.emplace_back(LogLevel::kInfo, "initial pose kept for the plugin still starting");
+      out.status = true;
+    } else {
+      control_.push_back({Control::Kind::kInitialPose, pose, 0});
+      pump_locked();
     }
-    if (!localizer) {
-      hold();  // handed to the plugin when it is installed
-      log(LogLevel::kInfo, "initial pose kept for the plugin still starting");
-      publish_status();
-      return;
-    }
-    try {
-      localizer->set_pose(pose);
-      hold();
-      log(LogLevel::kInfo, "initial pose set: x " + std::to_string(pose.pose.translation().x()) + ", y " +
-                               std::to_string(pose.pose.translation().y()));
-    } catch (const std::exception& e) {
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        ++counters_.rejected;
-        last_error_ = std::string("initial pose rejected by plugin '") + plugin_ + "': " + e.what();
-      }
-      log(LogLevel::kWarning, std::string("initial pose rejected: ") + e.what());
-    }
-    publish_status();
-  });
+  }
+  finish(out);
 }
+
+void Session::save_map(uint64_t request_id) {
+  Publication out;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!plugin_alive_locked()) {
+      request_id_ = request_id;
+      request_ok_ = false;
+      message_ = "map save request " + std::to_string(request_id) + " refused: no plugin running";
+      last_error_ = message_;
+      out.log.emplace_back(LogLevel::kWarning, message_);
+      out.status = true;
+    } else {
+      control_.push_back({Control::Kind::kSaveMap, {}, request_id});
+      pump_locked();
+    }
+  }
+  finish(out);
+}
+
+// ------------------------------------------------------------------------------- requests
 
 uint64_t Session::begin_request(uint64_t request_id) {
   std::lock_guard<std::mutex> lock(mutex_);
   // A request (re)starts the stream: a robot that restarted with its clock from zero is served.
   last_stamp_.fill(std::nullopt);
+  // Another request than the one replayed from before the server restarted: the robot is live
+  // and its initial poses are its own, whatever their stamps.
+  if (seeded_ && seeded_->request_id != request_id) seeded_.reset();
   return ++latest_generation_;
 }
 
-void Session::install(uint64_t generation, uint64_t request_id, LocalizerPtr localizer, const std::string& plugin,
-                      const std::string& message) {
-  auto self = shared_from_this();
-  auto incoming = std::make_shared<LocalizerPtr>(std::move(localizer));
-  post_control([this, self, generation, request_id, incoming, plugin, message] {
-    LocalizerPtr previous;
-    std::string previous_plugin;
-    std::optional<PoseEstimate> pose;
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (stopped_ || generation != latest_generation_) {
-        log(LogLevel::kInfo, "request " + std::to_string(request_id) + " for plugin " + plugin +
-                                 " superseded by a newer request; not installed");
-        return;
+void Session::start(uint64_t generation, uint64_t request_id, std::shared_ptr<const PluginLibrary> library,
+                    PluginConfigText config, const std::string& source) {
+  Pending pending;
+  pending.generation = generation;
+  pending.plugin.name = library->name();
+  pending.plugin.library = std::move(library);
+  pending.plugin.config = std::move(config);
+  pending.plugin.source = source;
+  pending.plugin.request_id = request_id;
+  configure_on_worker(std::move(pending));
+}
+
+void Session::configure_on_worker(Pending pending) {
+  Publication out;
+  uint64_t instance = 0;
+  std::string error;
+  try {
+    instance = env_.workers.create_instance(pending.plugin.library, weak_from_this());
+  } catch (const std::exception& e) {
+    error = std::string("plugin '") + pending.plugin.name + "' could not be started: " + e.what();
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopped_ || pending.generation != latest_generation_) {
+      if (instance) out.release.push_back(instance);
+    } else if (!error.empty()) {
+      if (pending.restart) {
+        register_failure_locked(error, out);
+      } else {
+        const bool running = plugin_alive_locked();
+        request_id_ = pending.plugin.request_id;
+        request_ok_ = false;
+        message_ = last_error_ = error;
+        if (!running) {
+          state_ = SessionState::kError;
+          stopped_ = true;
+          counters_.dropped += queue_.size();
+          queue_.clear();
+          out.forget = true;
+        }
+        out.status = true;
+        out.log.emplace_back(LogLevel::kWarning, "request " + std::to_string(pending.plugin.request_id) +
+                                                     " failed: " + error);
       }
-      previous = std::move(localizer_);
-      previous_plugin = plugin_;
-      localizer_ = std::move(*incoming);
-      plugin_ = plugin;
-      state_ = SessionState::kRunning;
-      request_id_ = request_id;
-      request_ok_ = true;
-      message_ = message;
-      pose = last_pose_;
-    }
-    previous.reset();
-    if (pose) {
-      try {
-        localizer_->set_pose(*pose);
-      } catch (const std::exception& e) {
-        std::lock_guard<std::mutex> lock(mutex_);
-        last_error_ = "plugin '" + plugin + "' refused the handed-over pose: " + e.what();
-      }
-    }
-    try {
-      const UpdateResult initial = localizer_->initial_outputs();
-      sink_.publish_outputs(robot_id_, plugin, map_header(wall_clock_ns()), initial, 0.0);
-    } catch (const std::exception& e) {
-      log(LogLevel::kError, "initial outputs of plugin " + plugin + " not published: " + e.what());
-    }
-    if (previous_plugin.empty()) {
-      log(LogLevel::kInfo, "session started: plugin " + plugin);
     } else {
-      log(LogLevel::kInfo, "switched plugin " + previous_plugin + " -> " + plugin +
-                               (pose ? " (last pose handed over)" : " (no pose to hand over yet)"));
+      if (pending_) out.release.push_back(pending_->plugin.instance);  // an older one still configuring
+      pending.plugin.instance = instance;
+      worker::ConfigureRequest request = env_.configure_template;
+      request.robot_id = robot_id_;
+      request.config = pending.plugin.config;
+      std::string frame;
+      worker::append_configure(frame, instance, request);
+      pending_ = std::move(pending);
+      // If the worker is already gone, its loss reaches on_lost and is handled there.
+      env_.workers.send(instance, worker::Op::kConfigure, std::move(frame),
+                        "configure of plugin '" + pending_->plugin.name + "' for robot '" + robot_id_ + "'");
     }
-    publish_status();
-  });
+  }
+  finish(out);
 }
 
 bool Session::fail_request(uint64_t generation, uint64_t request_id, const std::string& error) {
   bool running = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    running = localizer_ != nullptr;
+    running = plugin_alive_locked();
     if (generation != latest_generation_) return running;
     request_id_ = request_id;
     request_ok_ = false;
@@ -263,69 +305,468 @@ bool Session::fail_request(uint64_t generation, uint64_t request_id, const std::
 
 bool Session::abandon_if_idle(uint64_t generation) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (generation != latest_generation_ || localizer_) return false;
+  if (generation != latest_generation_ || plugin_alive_locked() || pending_) return false;
   stopped_ = true;
   counters_.dropped += queue_.size();
   queue_.clear();
   return true;
 }
 
-void Session::save_map(uint64_t request_id) {
-  auto self = shared_from_this();
-  post_control([this, self, request_id] {
-    Localizer* localizer = nullptr;
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      localizer = localizer_.get();
-    }
-    std::string message;
-    bool ok = false;
-    if (!localizer) {
-      message = "map save request " + std::to_string(request_id) + " refused: no plugin running";
-    } else {
-      try {
-        message = "map saved to " + localizer->save_map();
-        ok = true;
-      } catch (const std::exception& e) {
-        message = "map save request " + std::to_string(request_id) + " refused: " + e.what();
-      }
-    }
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      request_id_ = request_id;
-      request_ok_ = ok;
-      message_ = message;
-      if (!ok) last_error_ = message;
-    }
-    log(ok ? LogLevel::kInfo : LogLevel::kWarning, message);
-    publish_status();
-  });
-}
-
 void Session::stop(uint64_t request_id, const std::string& message) {
-  auto self = shared_from_this();
+  Publication out;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stopped_ = true;
     ++latest_generation_;  // a plugin still being configured is never installed
     counters_.dropped += queue_.size();
     queue_.clear();
+    control_.clear();
+    in_flight_.reset();
+    if (plugin_alive_locked()) out.release.push_back(current_->instance);
+    if (pending_) out.release.push_back(pending_->plugin.instance);
+    if (release_after_reply_) out.release.push_back(*release_after_reply_);
+    release_after_reply_.reset();
+    current_.reset();
+    pending_.reset();
+    state_ = SessionState::kStopped;
+    request_id_ = request_id;
+    request_ok_ = true;
+    message_ = message;
+    out.log.emplace_back(LogLevel::kInfo, "session stopped: " + message);
+    out.status = true;
   }
-  post_control([this, self, request_id, message] {
-    LocalizerPtr previous;
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      previous = std::move(localizer_);
-      state_ = SessionState::kStopped;
-      request_id_ = request_id;
-      request_ok_ = true;
-      message_ = message;
+  finish(out);
+}
+
+void Session::seed(const ResumeState& state) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  seeded_ = state;
+  if (state.failed) {
+    failed_request_id_ = state.request_id;
+  } else {
+    resume_ = state;
+  }
+}
+
+bool Session::failed_before_restart(uint64_t request_id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return seeded_ && seeded_->failed && seeded_->request_id == request_id;
+}
+
+void Session::refuse_failed_request(uint64_t request_id, const std::string& error) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    state_ = SessionState::kFailed;
+    failed_request_id_ = request_id;
+    request_id_ = request_id;
+    request_ok_ = false;
+    message_ = last_error_ = error;
+  }
+  log(LogLevel::kWarning, error);
+  publish_status();
+}
+
+std::optional<ResumeState> Session::resume_state() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (state_ == SessionState::kFailed && failed_request_id_) {
+    ResumeState failed = resume_.value_or(ResumeState{});
+    failed.request_id = *failed_request_id_;
+    failed.plugin = current_ ? current_->name : failed.plugin;
+    failed.failed = true;
+    return failed;
+  }
+  return resume_;
+}
+
+// ------------------------------------------------------------------------------- the worker's turn
+
+PoseEstimate Session::pose_at_next_message_locked() const {
+  const Measurement& next = queue_.front();
+  // An odometry message: the plugin takes it as its reference, so the pose is exact there.
+  if (const auto* odometry = std::get_if<Odometry>(&next)) return resume_pose(*resume_, odometry);
+  // Another kind: the newest odometry, carried on to that message's stamp by its velocity.
+  if (newest_odometry_) {
+    const int64_t stamp = header_of(next).stamp_ns;
+    if (const auto odom = odometry_at(*newest_odometry_, stamp)) {
+      Odometry at_stamp = *newest_odometry_;
+      at_stamp.header.stamp_ns = stamp;
+      at_stamp.pose = *odom;
+      return resume_pose(*resume_, &at_stamp);
     }
-    previous.reset();
-    log(LogLevel::kInfo, "session stopped: " + message);
-    publish_status();
+  }
+  return resume_pose(*resume_, nullptr);
+}
+
+void Session::pump_locked() {
+  if (in_flight_ || !plugin_alive_locked() || stopped_) return;
+  const uint64_t instance = current_->instance;
+  InFlight next;
+  next.instance = instance;
+  next.plugin = current_->name;
+  std::string frame;
+  worker::Op op = worker::Op::kUpdate;
+  if (!control_.empty()) {
+    Control control = std::move(control_.front());
+    control_.pop_front();
+    switch (control.kind) {
+      case Control::Kind::kSaveMap:
+        op = worker::Op::kSaveMap;
+        worker::append_request(frame, instance, op);
+        next.what = "map save request " + std::to_string(control.request_id);
+        break;
+      case Control::Kind::kResumePose:
+        if (!resume_) return;
+        if (queue_.empty()) {
+          // The pose is placed where the robot is at the next message: wait for it.
+          control_.push_front(std::move(control));
+          return;
+        }
+        control.pose = pose_at_next_message_locked();
+        [[fallthrough]];
+      case Control::Kind::kInitialPose:
+        op = worker::Op::kSetPose;
+        worker::append_set_pose(frame, instance, control.pose);
+        next.what = std::string(control.kind == Control::Kind::kInitialPose ? "initial pose" : "resumed pose") +
+                    " stamped " + stamp_text(control.pose.header.stamp_ns);
+        break;
+    }
+    next.control = std::move(control);
+  } else if (!queue_.empty()) {
+    next.measurement.emplace(std::move(queue_.front()));
+    queue_.pop_front();
+    worker::append_update(frame, instance, *next.measurement);
+    next.what = std::string("update of ") + topic_of(kind_of(*next.measurement)) + " stamped " +
+                stamp_text(header_of(*next.measurement).stamp_ns);
+    if (const auto* odometry = std::get_if<Odometry>(&*next.measurement)) last_odometry_sent_ = *odometry;
+  } else {
+    return;
+  }
+  const std::string what = next.what;
+  in_flight_ = std::move(next);
+  if (!env_.workers.send(instance, op, std::move(frame), what)) {
+    // The worker is gone; on_lost puts the request back or drops it.
+    return;
+  }
+}
+
+void Session::on_reply(uint64_t instance, worker::Reply reply) {
+  Publication out;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (pending_ && pending_->plugin.instance == instance && reply.request == worker::Op::kConfigure) {
+      Pending pending = std::move(*pending_);
+      pending_.reset();
+      handle_configured_locked(std::move(pending), reply, out);
+    } else if (in_flight_ && in_flight_->instance == instance) {
+      InFlight done = std::move(*in_flight_);
+      in_flight_.reset();
+      if (done.measurement) {
+        handle_update_locked(done, reply, out);
+      } else {
+        handle_control_locked(done, reply, out);
+      }
+      if (release_after_reply_ == done.instance) {
+        out.release.push_back(done.instance);
+        release_after_reply_.reset();
+      }
+      if (failures_in_a_row_ > 0 &&
+          Clock::now() - running_since_ > std::chrono::duration<double>(env_.failures.failure_reset_s)) {
+        failures_in_a_row_ = 0;
+      }
+    }
+    pump_locked();
+  }
+  finish(out);
+}
+
+void Session::handle_configured_locked(Pending pending, worker::Reply& reply, Publication& out) {
+  const std::string plugin = pending.plugin.name;
+  if (stopped_ || pending.generation != latest_generation_) {
+    out.release.push_back(pending.plugin.instance);
+    out.log.emplace_back(LogLevel::kInfo, "request " + std::to_string(pending.plugin.request_id) + " for plugin " +
+                                              plugin + " superseded by a newer request; not installed");
+    return;
+  }
+  if (reply.outcome != worker::Outcome::kOk) {
+    out.release.push_back(pending.plugin.instance);
+    if (pending.restart) {
+      register_failure_locked("plugin '" + plugin + "' could not be restarted: " + reply.message, out);
+      return;
+    }
+    const bool running = plugin_alive_locked();
+    request_id_ = pending.plugin.request_id;
+    request_ok_ = false;
+    message_ = last_error_ = reply.message;
+    if (!running) {
+      state_ = SessionState::kError;
+      stopped_ = true;
+      counters_.dropped += queue_.size();
+      queue_.clear();
+      out.forget = true;
+    }
+    out.log.emplace_back(LogLevel::kWarning, "request " + std::to_string(pending.plugin.request_id) + " failed" +
+                                                 (running ? " (the running plugin carries on): " : ": ") +
+                                                 reply.message);
+    out.status = true;
+    return;
+  }
+  const std::string previous = current_ ? current_->name : "";
+  if (plugin_alive_locked()) {
+    // The old plugin finishes the request it is handling (its outputs are published), then goes.
+    if (in_flight_ && in_flight_->instance == current_->instance) {
+      release_after_reply_ = current_->instance;
+    } else {
+      out.release.push_back(current_->instance);
+    }
+  }
+  current_ = std::move(pending.plugin);
+  state_ = SessionState::kRunning;
+  running_since_ = Clock::now();
+  if (pending.restart) {
+    message_ = "plugin " + plugin + " restarted after failure " + std::to_string(failures_) +
+               (resume_ ? " (resumed from the robot's last pose)" : "");
+    out.log.emplace_back(LogLevel::kInfo, message_);
+  } else {
+    failures_in_a_row_ = 0;
+    failed_request_id_.reset();
+    request_id_ = current_->request_id;
+    request_ok_ = true;
+    const char* version = current_->library->descriptor().version;
+    message_ = "plugin " + plugin + " " + (version ? version : "") + " configured from " + current_->source;
+    if (previous.empty()) {
+      out.log.emplace_back(LogLevel::kInfo, "session started: plugin " + plugin);
+    } else {
+      out.log.emplace_back(LogLevel::kInfo, "switched plugin " + previous + " -> " + plugin +
+                                                (resume_ ? " (last pose handed over)" : " (no pose to hand over yet)"));
+    }
+  }
+  if (resume_) control_.push_front({Control::Kind::kResumePose, {}, 0});
+  out.outputs = std::move(reply.result);
+  out.plugin = plugin;
+  out.header = map_header(wall_clock_ns());
+  out.status = true;
+}
+
+void Session::handle_update_locked(InFlight& done, worker::Reply& reply, Publication& out) {
+  const Header header = header_of(*done.measurement);
+  const char* topic = topic_of(kind_of(*done.measurement));
+  std::string error;
+  if (reply.outcome == worker::Outcome::kInputError) {
+    error = std::string(topic) + ": " + reply.message;
+  } else if (reply.outcome != worker::Outcome::kOk) {
+    error = "plugin '" + done.plugin + "' failed on " + topic + ": " + reply.message;
+  } else if (reply.result.estimate) {
+    auto& estimate = *reply.result.estimate;
+    estimate.header.stamp_ns = header.stamp_ns;
+    if (estimate.header.frame_id.empty()) estimate.header.frame_id = "map";
+    try {
+      validate(estimate);
+    } catch (const InputError& e) {
+      error = "plugin '" + done.plugin + "' returned an unusable estimate for the " + done.what + ": " + e.what() +
+              "; refused";
+    }
+  }
+  if (!error.empty()) {
+    ++counters_.rejected;
+    last_error_ = error;
+    out.log.emplace_back(LogLevel::kWarning, "rejected: " + error);
+    out.status = true;
+    return;
+  }
+  ++counters_.used;
+  counters_.last_update_ms = reply.compute_ms;
+  if (reply.result.localization) {
+    if (reply.result.localization->state != localization_.state) {
+      // A robot acts on "lost" at once, not at the next periodic status.
+      out.status = true;
+      out.log.emplace_back(LogLevel::kInfo, std::string("localization ") +
+                                                localization_state_name(reply.result.localization->state) + ": " +
+                                                reply.result.localization->reason);
+    }
+    localization_ = *reply.result.localization;
+  }
+  if (reply.result.estimate) {
+    ++counters_.updates;
+    const PoseEstimate& estimate = *reply.result.estimate;
+    ResumeState state{estimate, std::nullopt, done.plugin, current_ ? current_->request_id : request_id_, false};
+    if (last_odometry_sent_) state.map_from_odom = map_from_odom(estimate, *last_odometry_sent_);
+    resume_ = std::move(state);
+  }
+  out.outputs = std::move(reply.result);
+  out.plugin = done.plugin;
+  out.header = map_header(header.stamp_ns);
+  out.update_ms = reply.compute_ms;
+}
+
+void Session::handle_control_locked(InFlight& done, worker::Reply& reply, Publication& out) {
+  const Control& control = *done.control;
+  const bool ok = reply.outcome == worker::Outcome::kOk;
+  switch (control.kind) {
+    case Control::Kind::kInitialPose:
+      if (ok) {
+        ++counters_.used;
+        initial_pose_stamp_ns_ = control.pose.header.stamp_ns;
+        resume_ = ResumeState{control.pose, std::nullopt, done.plugin, request_id_, false};
+        out.log.emplace_back(LogLevel::kInfo, "initial pose set: x " + std::to_string(control.pose.pose.translation().x()) +
+                                                  ", y " + std::to_string(control.pose.pose.translation().y()));
+      } else {
+        ++counters_.rejected;
+        last_error_ = "initial pose rejected by plugin '" + done.plugin + "': " + reply.message;
+        out.log.emplace_back(LogLevel::kWarning, last_error_);
+      }
+      out.status = true;
+      break;
+    case Control::Kind::kResumePose:
+      if (!ok) {
+        last_error_ = "plugin '" + done.plugin + "' refused the handed-over pose: " + reply.message;
+        out.log.emplace_back(LogLevel::kWarning, last_error_);
+        out.status = true;
+      }
+      break;
+    case Control::Kind::kSaveMap:
+      request_id_ = control.request_id;
+      request_ok_ = ok;
+      message_ = ok ? "map saved to " + reply.message
+                    : "map save request " + std::to_string(control.request_id) + " refused: " + reply.message;
+      if (!ok) last_error_ = message_;
+      out.log.emplace_back(ok ? LogLevel::kInfo : LogLevel::kWarning, message_);
+      out.status = true;
+      break;
+  }
+}
+
+void Session::on_log(uint64_t, const worker::LogLine& line) { log(line.level, line.text); }
+
+void Session::on_lost(uint64_t instance, const WorkerLoss& loss) {
+  Publication out;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (pending_ && pending_->plugin.instance == instance) {
+      Pending pending = std::move(*pending_);
+      pending_.reset();
+      if (stopped_ || pending.generation != latest_generation_) {
+        // superseded meanwhile: nothing to report
+      } else if (pending.restart) {
+        register_failure_locked(loss.description, out);
+      } else {
+        const bool running = plugin_alive_locked();
+        request_id_ = pending.plugin.request_id;
+        request_ok_ = false;
+        message_ = last_error_ = loss.description;
+        if (!running) {
+          state_ = SessionState::kError;
+          stopped_ = true;
+          counters_.dropped += queue_.size();
+          queue_.clear();
+          out.forget = true;
+        }
+        out.log.emplace_back(LogLevel::kError, "request " + std::to_string(pending.plugin.request_id) +
+                                                   " failed: " + loss.description);
+        out.status = true;
+      }
+    }
+    if (release_after_reply_ == instance) release_after_reply_.reset();
+    if (in_flight_ && in_flight_->instance == instance) {
+      InFlight lost = std::move(*in_flight_);
+      in_flight_.reset();
+      if (loss.blamed) {
+        // What the plugin died on is not given to it again.
+        if (lost.measurement || (lost.control && lost.control->kind == Control::Kind::kInitialPose)) {
+          ++counters_.rejected;
+        }
+      } else if (lost.measurement) {
+        queue_.push_front(std::move(*lost.measurement));
+      } else if (lost.control) {
+        control_.push_front(std::move(*lost.control));
+      }
+    }
+    if (current_ && current_->instance == instance) {
+      current_->instance = 0;
+      if (!stopped_) {
+        if (loss.blamed) {
+          register_failure_locked(loss.description, out);
+        } else {
+          state_ = SessionState::kRestarting;
+          last_error_ = loss.description;
+          out.log.emplace_back(LogLevel::kWarning, loss.description);
+          out.status = true;
+          schedule_restart_locked(std::chrono::duration<double>(0.0));
+        }
+      }
+    }
+    pump_locked();
+  }
+  finish(out);
+}
+
+void Session::register_failure_locked(const std::string& description, Publication& out) {
+  if (failures_in_a_row_ > 0 &&
+      Clock::now() - running_since_ > std::chrono::duration<double>(env_.failures.failure_reset_s)) {
+    failures_in_a_row_ = 0;
+  }
+  ++failures_;
+  ++failures_in_a_row_;
+  out.status = true;
+  if (failures_in_a_row_ >= env_.failures.max_failures) {
+    state_ = SessionState::kFailed;
+    failed_request_id_ = current_ ? current_->request_id : request_id_;
+    last_error_ = description + "; it failed " + std::to_string(failures_in_a_row_) +
+                  " times in a row (max_failures = " + std::to_string(env_.failures.max_failures) +
+                  "): stopped; a new session request starts it again";
+    message_ = "plugin failed " + std::to_string(failures_in_a_row_) + " times in a row; session stopped";
+    counters_.dropped += queue_.size();
+    queue_.clear();
+    control_.clear();
+    out.log.emplace_back(LogLevel::kError, last_error_);
+    return;
+  }
+  const double delay = std::min(env_.failures.backoff_max_s,
+                                env_.failures.backoff_initial_s * std::pow(2.0, failures_in_a_row_ - 1.0));
+  state_ = SessionState::kRestarting;
+  last_error_ = description + "; restart " + std::to_string(failures_in_a_row_) + " of at most " +
+                std::to_string(env_.failures.max_failures - 1) + " in " + seconds_text(delay);
+  out.log.emplace_back(LogLevel::kError, last_error_);
+  schedule_restart_locked(std::chrono::duration<double>(delay));
+}
+
+void Session::schedule_restart_locked(std::chrono::duration<double> delay) {
+  std::weak_ptr<Session> weak = weak_from_this();
+  const uint64_t generation = latest_generation_;
+  env_.workers.after(std::chrono::duration_cast<Clock::duration>(delay), [weak, generation] {
+    if (auto self = weak.lock()) self->restart(generation);
   });
 }
+
+void Session::restart(uint64_t generation) {
+  Pending pending;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopped_ || generation != latest_generation_ || !current_ || current_->instance != 0 || pending_ ||
+        state_ == SessionState::kFailed) {
+      return;
+    }
+    pending.plugin = *current_;
+    pending.generation = generation;
+    pending.restart = true;
+  }
+  configure_on_worker(std::move(pending));
+}
+
+void Session::finish(Publication& out) {
+  for (const uint64_t instance : out.release) env_.workers.release(instance);
+  for (const auto& [level, line] : out.log) log(level, line);
+  if (out.outputs) {
+    try {
+      env_.sink.publish_outputs(robot_id_, out.plugin, out.header, *out.outputs, out.update_ms);
+    } catch (const std::exception& e) {
+      log(LogLevel::kError, std::string("outputs not published: ") + e.what());
+    }
+  }
+  if (out.forget && env_.forget) env_.forget(shared_from_this());
+  if (out.status) publish_status();
+}
+
+// ------------------------------------------------------------------------------- status
 
 SessionStatusReport Session::status() const {
   SessionStatusReport s;
@@ -333,127 +774,23 @@ SessionStatusReport Session::status() const {
   s.robot_id = robot_id_;
   s.stamp_ns = wall_clock_ns();
   s.state = state_;
-  s.plugin = plugin_;
+  s.plugin = current_ ? current_->name : "";
   s.request_id = request_id_;
   s.request_ok = request_ok_;
   s.message = message_;
   s.last_error = last_error_;
   s.counters = counters_;
   s.initial_pose_stamp_ns = initial_pose_stamp_ns_;
+  s.failures = failures_;
   s.localization = localization_;
   return s;
 }
 
 void Session::publish_status() const {
   try {
-    sink_.publish_status(status());
+    env_.sink.publish_status(status());
   } catch (const std::exception& e) {
     log(LogLevel::kError, std::string("status not published: ") + e.what());
-  }
-}
-
-void Session::post_control(std::function<void()> work) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  control_.push_back(std::move(work));
-  schedule_drain_locked();
-}
-
-void Session::schedule_drain_locked() {
-  if (drain_scheduled_) return;
-  auto self = shared_from_this();
-  drain_scheduled_ = pool_.post([self] { self->drain(); });
-}
-
-void Session::drain() {
-  for (int handled = 0; handled < kDrainBatch; ++handled) {
-    std::function<void()> control;
-    std::optional<Measurement> next;
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (!control_.empty()) {
-        control = std::move(control_.front());
-        control_.pop_front();
-      } else if (localizer_ && !stopped_ && !queue_.empty()) {
-        next.emplace(std::move(queue_.front()));
-        queue_.pop_front();
-      } else {
-        drain_scheduled_ = false;
-        return;
-      }
-    }
-    if (control) {
-      control();
-    } else {
-      process(*next);
-    }
-  }
-  // Yield the worker to other sessions; the strand stays scheduled.
-  auto self = shared_from_this();
-  if (!pool_.post([self] { self->drain(); })) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    drain_scheduled_ = false;
-  }
-}
-
-void Session::process(Measurement& measurement) {
-  Localizer* localizer = localizer_.get();  // replaced only on this strand
-  std::string plugin;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    plugin = plugin_;
-  }
-  const Header header = header_of(measurement);
-  const char* topic = topic_of(kind_of(measurement));
-  UpdateResult result;
-  std::string error;
-  const auto start = std::chrono::steady_clock::now();
-  try {
-    result = localizer->update(measurement);
-  } catch (const InputError& e) {
-    error = std::string(topic) + ": " + e.what();
-  } catch (const std::exception& e) {
-    error = "plugin '" + plugin + "' failed on " + topic + ": " + e.what();
-  } catch (...) {
-    error = "plugin '" + plugin + "' failed on " + topic + " with a non-standard exception";
-  }
-  const double update_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  if (!error.empty()) {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      ++counters_.rejected;
-      last_error_ = error;
-    }
-    log_rejection(error);
-    publish_status();
-    return;
-  }
-  bool localization_changed = false;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    ++counters_.used;
-    counters_.last_update_ms = update_ms;
-    if (result.localization) {
-      localization_changed = result.localization->state != localization_.state;
-      localization_ = *result.localization;
-    }
-    if (result.estimate) {
-      result.estimate->header.stamp_ns = header.stamp_ns;
-      if (result.estimate->header.frame_id.empty()) result.estimate->header.frame_id = "map";
-      ++counters_.updates;
-      last_pose_ = *result.estimate;
-    }
-  }
-  try {
-    sink_.publish_outputs(robot_id_, plugin, map_header(header.stamp_ns), result, update_ms);
-  } catch (const std::exception& e) {
-    log(LogLevel::kError, std::string("outputs not published: ") + e.what());
-  }
-  if (localization_changed) {
-    // A robot acts on "lost" at once, not at the next periodic status.
-    log(LogLevel::kInfo, std::string("localization ") + localization_state_name(result.localization->state) + ": " +
-                             result.localization->reason);
-    publish_status();
   }
 }
 

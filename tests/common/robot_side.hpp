@@ -28,7 +28,7 @@ class RobotSide {
   RobotSide(int domain, std::string robot_id, ChildProcess& locd,
             std::chrono::seconds timeout = std::chrono::seconds(30))
       : robot_id_(std::move(robot_id)),
-        locd_(locd),
+        locd_(&locd),
         timeout_(timeout),
         participant_(domain),
         requests_(participant_, topics::kSessionRequest, dds::QosProfile::kState, 8, partition()),
@@ -50,6 +50,8 @@ class RobotSide {
         }, 8, partition()) {}
 
   dds::Participant& participant() { return participant_; }
+  // The locd this robot now talks to (after a test restarted it), for waits and logs.
+  void set_server(ChildProcess& locd) { locd_ = &locd; }
   const std::string& robot_id() const { return robot_id_; }
   // The robot's DDS partition: every endpoint of the robot's side lives in it (topics.hpp).
   dds::Partitions partition() const { return {topics::robot_partition(robot_id_)}; }
@@ -61,8 +63,8 @@ class RobotSide {
   ::testing::AssertionResult wait_matched(const Endpoints&... endpoints) {
     const auto deadline = std::chrono::steady_clock::now() + timeout_;
     while (requests_.matched() == 0 || ((endpoints.matched() == 0) || ...)) {
-      if (std::chrono::steady_clock::now() > deadline || !locd_.running()) {
-        return ::testing::AssertionFailure() << "locd did not come up:\n" << locd_.output();
+      if (std::chrono::steady_clock::now() > deadline || !locd_->running()) {
+        return ::testing::AssertionFailure() << "locd did not come up:\n" << locd_->output();
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
@@ -90,7 +92,7 @@ class RobotSide {
     return ::testing::AssertionFailure() << "timed out waiting for " << what << "; poses " << poses_seen_.size()
                                          << ", last message '" << status_.message << "', last error '"
                                          << status_.last_error << "'\n"
-                                         << locd_.output();
+                                         << locd_->output();
   }
 
   // Until the robot has received a pose stamped `stamp_ns`.
@@ -142,7 +144,7 @@ class RobotSide {
 
  private:
   const std::string robot_id_;
-  ChildProcess& locd_;
+  ChildProcess* locd_;
   const std::chrono::seconds timeout_;
   std::mutex mutex_;
   std::condition_variable changed_;

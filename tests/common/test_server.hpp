@@ -20,6 +20,7 @@ struct TestServerOptions {
   std::string map_directories;  // YAML list body; default: the tree's config/maps
   std::string extra_config;     // more lines of locd.yaml (e.g. "output_directory: maps\n")
   int queue_depth = 1000;
+  std::string extra_plugin_directory;  // besides the tree's plugins (e.g. the broken plugins)
 };
 
 class TestServer {
@@ -30,15 +31,20 @@ class TestServer {
     std::ofstream(dir_ / "locd.yaml")
         << "server_id: " << name << "-" << domain << "\n"
         << "domain_id: " << domain << "\n"
-        << "plugin_directories: [" << plugin_dir() << "]\n"
+        << "plugin_directories: [" << plugin_dir()
+        << (options.extra_plugin_directory.empty() ? "" : ", " + options.extra_plugin_directory) << "]\n"
         << "map_directories: ["
         << (options.map_directories.empty() ? source_dir() + "/config/maps" : options.map_directories) << "]\n"
         << "status_period_s: 0.2\n"
         << "queue_depth: " << options.queue_depth << "\n"
         << options.extra_config;
-    process_ = std::make_unique<ChildProcess>(binary_dir() + "/bin/locd",
-                                              std::vector<std::string>{"--config", (dir_ / "locd.yaml").string()},
-                                              (dir_ / "locd.log").string());
+    start();
+  }
+  // Starts locd again on the same config (after the last one ended); its log goes to
+  // locd.<n>.log, n counting the restarts.
+  void restart() {
+    ++starts_;
+    start();
   }
   ~TestServer() {
     if (process_->running()) {
@@ -55,7 +61,15 @@ class TestServer {
   ChildProcess& process() { return *process_; }
 
  private:
+  void start() {
+    const std::string log = starts_ == 0 ? "locd.log" : "locd." + std::to_string(starts_) + ".log";
+    process_ = std::make_unique<ChildProcess>(binary_dir() + "/bin/locd",
+                                              std::vector<std::string>{"--config", (dir_ / "locd.yaml").string()},
+                                              (dir_ / log).string());
+  }
+
   std::filesystem::path dir_;
+  int starts_ = 0;
   std::unique_ptr<ChildProcess> process_;
 };
 

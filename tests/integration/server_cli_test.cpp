@@ -97,7 +97,7 @@ TEST(ServerCli, PluginDirOptionAddsADirectory) {
   const auto [code, output] =
       run_locd(dir, {"--check-config", config.string(), "--plugin-dir", LOCD_BROKEN_PLUGIN_DIR, "--domain", "9"});
   EXPECT_EQ(code, 0) << output;
-  EXPECT_CONTAINS(output, "domain 9, plugins: broken_configure_throws, broken_factory_throws, fixture_odometry");
+  EXPECT_CONTAINS(output, "domain 9, plugins: broken_configure_throws, broken_factory_throws, faulty, fixture_odometry");
 }
 
 TEST(ServerCli, CheckConfigNamesEachError) {
@@ -246,10 +246,10 @@ TEST(ServerCli, BootSessionRunsWithoutAClientAndShutsDownCleanlyOnSigint) {
 
   ASSERT_TRUE(robot.wait([&] { return !robot.server_id_.empty(); })) << locd.output();
   EXPECT_EQ(robot.server_id_, "boot-test");
-  // The three good fixtures of the broken-plugin folder, and every plugin built in this tree.
+  // The four good fixtures of the broken-plugin folder, and every plugin built in this tree.
   size_t built = 0;
   for (const auto& entry : fs::directory_iterator(locd::test::plugin_dir())) built += entry.path().extension() == ".so";
-  EXPECT_EQ(robot.plugins_.size(), 3u + built);
+  EXPECT_EQ(robot.plugins_.size(), 4u + built);
   EXPECT_EQ(robot.rejected_, 4u);
 
   // Running with nobody having asked: request_id 0, state running.

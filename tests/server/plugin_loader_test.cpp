@@ -40,7 +40,8 @@ TEST(PluginLoader, RefusesEachBrokenFileNamingFileAndCause) {
 
 TEST(PluginLoader, GoodPluginsNextToBrokenOnesStillLoad) {
   const PluginCatalog catalog({kDir});
-  const std::vector<std::string> expected{"broken_configure_throws", "broken_factory_throws", "fixture_odometry"};
+  const std::vector<std::string> expected{"broken_configure_throws", "broken_factory_throws", "faulty",
+                                         "fixture_odometry"};
   EXPECT_EQ(catalog.names(), expected);
   ASSERT_NE(catalog.find("fixture_odometry"), nullptr);
   EXPECT_EQ(catalog.find("fixture_odometry")->file(), fs::path(file_of("fixture_odometry")));
@@ -105,7 +106,7 @@ TEST(PluginLoader, UnknownPluginListsTheKnownOnes) {
     FAIL();
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("unknown plugin 'no_such_plugin'; known plugins: broken_configure_throws, "
-                                         "broken_factory_throws, fixture_odometry"),
+                                         "broken_factory_throws, faulty, fixture_odometry"),
               std::string::npos)
         << e.what();
   }

@@ -17,6 +17,7 @@ class ServerRouterTest : public ::testing::Test {
   ServerRouterTest() : catalog_({LOCD_BROKEN_PLUGIN_DIR}) {
     config_.server_id = "router-test";
     config_.queue_depth = 32;
+    config_.plugin_workers.executable = LOCD_WORKER_EXECUTABLE;
     logger_.set_level(LogLevel::kError);
     server_ = std::make_unique<Server>(config_, catalog_, sink_, logger_);
   }
@@ -47,9 +48,9 @@ TEST_F(ServerRouterTest, ServerInfoListsPluginsAndRefusedFiles) {
   const auto infos = sink_.infos();
   ASSERT_EQ(infos.size(), 1u);
   EXPECT_EQ(infos[0].server_id, "router-test");
-  ASSERT_EQ(infos[0].plugins.size(), 3u);
-  EXPECT_EQ(infos[0].plugins[2].name, "fixture_odometry");
-  EXPECT_EQ(infos[0].plugins[2].consumes, (std::vector<std::string>{"odometry", "scan"}));
+  ASSERT_EQ(infos[0].plugins.size(), 4u);
+  EXPECT_EQ(infos[0].plugins[3].name, "fixture_odometry");
+  EXPECT_EQ(infos[0].plugins[3].consumes, (std::vector<std::string>{"odometry", "scan"}));
   EXPECT_EQ(infos[0].rejected_plugins.size(), 4u);
 }
 
@@ -76,7 +77,7 @@ TEST_F(ServerRouterTest, BadRequestsAreAnsweredWithClearErrors) {
 
   s = request("r2", 2, "", "plugin: no_such_plugin\n");
   EXPECT_NE(s.message.find("unknown plugin 'no_such_plugin'; known plugins: broken_configure_throws, "
-                           "broken_factory_throws, fixture_odometry"),
+                           "broken_factory_throws, faulty, fixture_odometry"),
             std::string::npos)
       << s.message;
 

@@ -1,10 +1,14 @@
-// Session queue semantics with a recording Localizer (defined here; it tests the queue, it is not
-// a shipped plugin): stamp order, drop-oldest, stamps going backwards, serial execution, the pose
-// handed over on a plugin switch, and a failed switch keeping the old plugin.
+// Session semantics with real plugin worker processes (locd-worker) running the fixture plugins
+// of tests/broken_plugins: stamp order, drop-oldest, stamps going backwards, one request at a time,
+// the pose handed over on a switch (following the odometry), a failed switch keeping the old
+// plugin, and what happens when a plugin's worker crashes, exits, hangs or lies: the session
+// restarts it from the robot's pose with backoff, gives up after max_failures, and refuses
+// unusable estimates. Outputs are observed through a recording OutputSink.
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <cmath>
+#include <signal.h>
 #include <thread>
 
 #include "locd/server/session.hpp"
@@ -14,66 +18,13 @@ namespace {
 
 using namespace locd;
 using namespace locd::server;
+using locd::server::test::PublishedOutputs;
 using locd::server::test::RecordingSink;
 
-struct Record {
-  std::mutex mutex;
-  std::vector<int64_t> stamps;             // measurement stamps in update order
-  std::vector<PoseEstimate> poses_set;     // what set_pose received
-  std::atomic<int> inside{0};
-  std::atomic<int> max_inside{0};
-  std::atomic<int> destroyed{0};
-};
-
-// Records every call. An odometry update returns an estimate at x = stamp / 1000; a scan whose
-// first range is negative is rejected with an InputError.
-class RecordingLocalizer : public Localizer {
- public:
-  RecordingLocalizer(std::shared_ptr<Record> record, std::chrono::microseconds work = {})
-      : record_(std::move(record)), work_(work) {}
-  ~RecordingLocalizer() override { ++record_->destroyed; }
-  void configure(const PluginContext&, const Params&) override {}
-  void set_pose(const PoseEstimate& pose) override {
-    std::lock_guard<std::mutex> lock(record_->mutex);
-    record_->poses_set.push_back(pose);
-  }
-  UpdateResult update(const Measurement& m) override {
-    const int now_inside = ++record_->inside;
-    int seen = record_->max_inside.load();
-    while (now_inside > seen && !record_->max_inside.compare_exchange_weak(seen, now_inside)) {
-    }
-    if (work_.count() > 0) std::this_thread::sleep_for(work_);
-    const int64_t stamp = header_of(m).stamp_ns;
-    {
-      std::lock_guard<std::mutex> lock(record_->mutex);
-      record_->stamps.push_back(stamp);
-    }
-    --record_->inside;
-    if (const auto* scan = std::get_if<LaserScan>(&m); scan && !scan->ranges.empty() && scan->ranges[0] < 0) {
-      throw InputError("negative range " + std::to_string(scan->ranges[0]));
-    }
-    UpdateResult result;
-    if (std::holds_alternative<Odometry>(m)) {
-      PoseEstimate e;
-      e.pose.translation() = Eigen::Vector3d(static_cast<double>(stamp) / 1000.0, 0.0, 0.0);
-      result.estimate = e;
-    }
-    return result;
-  }
-
- private:
-  std::shared_ptr<Record> record_;
-  std::chrono::microseconds work_;
-};
-
-// A LocalizerPtr that owns a RecordingLocalizer without a plugin library.
-LocalizerPtr recording(std::shared_ptr<Record> record, std::chrono::microseconds work = {}) {
-  return LocalizerPtr(new RecordingLocalizer(std::move(record), work), LocalizerDeleter{nullptr});
-}
-
-Odometry odometry(int64_t stamp) {
+Odometry odometry(int64_t stamp, double x = 0.0) {
   Odometry o;
   o.header.stamp_ns = stamp;
+  o.pose.translation() = Eigen::Vector3d(x, 0.0, 0.0);
   return o;
 }
 
@@ -82,15 +33,34 @@ LaserScan scan(int64_t stamp, float first_range = 1.0f) {
   s.header.stamp_ns = stamp;
   s.range_max = 10.0f;
   s.angle_increment = 0.01f;
-  s.ranges = {first_range, 1.0f};
+  s.ranges = {first_range};
   return s;
 }
 
+PoseEstimate pose_at(double x, double y, int64_t stamp = 1) {
+  PoseEstimate p;
+  p.header.stamp_ns = stamp;
+  p.pose.translation() = Eigen::Vector3d(x, y, 0.0);
+  return p;
+}
+
+const std::string kFixture = "plugin: fixture_odometry\n";
+std::string faulty(const std::string& params) { return "plugin: faulty\nparams: {" + params + "}\n"; }
+
 class SessionTest : public ::testing::Test {
  protected:
-  std::shared_ptr<Session> make(size_t depth, size_t threads = 2) {
-    pool_ = std::make_unique<WorkerPool>(threads);
-    return std::make_shared<Session>("robot", *pool_, sink_, depth, [this](LogLevel level, const std::string& line) {
+  SessionTest() : catalog_({LOCD_BROKEN_PLUGIN_DIR}) {}
+
+  std::shared_ptr<Session> make(size_t depth, FailurePolicy failures = {}, double update_deadline_s = 10.0) {
+    WorkerSettings settings;
+    settings.executable = LOCD_WORKER_EXECUTABLE;
+    settings.update_deadline_s = update_deadline_s;
+    settings.memory_limit_mb = 512;
+    workers_ = std::make_unique<PluginWorkers>(settings, Limits{}, logger_);
+    pool_ = std::make_unique<WorkerPool>(2);
+    environment_ = std::make_unique<SessionEnvironment>(
+        SessionEnvironment{*workers_, *pool_, sink_, depth, failures, worker::ConfigureRequest{}, nullptr});
+    return std::make_shared<Session>("robot", *environment_, [this](LogLevel level, const std::string& line) {
       std::lock_guard<std::mutex> lock(log_mutex_);
       log_.emplace_back(level, line);
     });
@@ -103,86 +73,108 @@ class SessionTest : public ::testing::Test {
     }
     return lines;
   }
-  // Installs a plugin and waits until the session reports it running.
-  void install(Session& session, LocalizerPtr localizer, const std::string& plugin, uint64_t request_id) {
+  void request(Session& session, const std::string& yaml, uint64_t request_id) {
     const uint64_t generation = session.begin_request(request_id);
-    session.install(generation, request_id, std::move(localizer), plugin, "ok");
+    const PluginConfig config = split_plugin_config(yaml, "test");
+    session.start(generation, request_id, catalog_.require(config.plugin), PluginConfigText{yaml, "test", {}}, "test");
+  }
+  // Starts a plugin and waits until the session reports it running.
+  void install(Session& session, const std::string& yaml, uint64_t request_id) {
+    request(session, yaml, request_id);
+    const std::string plugin = split_plugin_config(yaml, "test").plugin;
     ASSERT_TRUE(sink_.wait_status("robot", [&](const SessionStatusReport& s) {
       return s.request_id == request_id && s.plugin == plugin && s.state == SessionState::kRunning;
-    }));
+    })) << "plugin " << plugin << " did not start";
   }
-  bool wait_used(Session& session, uint64_t used) {
-    for (int i = 0; i < 1000; ++i) {
+  bool wait_counted(Session& session, uint64_t handled) {
+    return sink_.wait_for([&](const auto&, const auto&) {
       const auto c = session.status().counters;
-      if (c.used + c.rejected >= used) return true;
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      return c.used + c.rejected >= handled;
+    });
+  }
+  // Stamps of the outputs published after configure (header = measurement stamp), in order.
+  std::vector<int64_t> output_stamps(int64_t below = 1'000'000'000) {
+    std::vector<int64_t> stamps;
+    for (const auto& o : sink_.outputs()) {
+      if (o.header.stamp_ns < below) stamps.push_back(o.header.stamp_ns);
     }
-    return false;
+    return stamps;
+  }
+  std::vector<PoseEstimate> estimates() {
+    std::vector<PoseEstimate> out;
+    for (const auto& o : sink_.outputs()) {
+      if (o.result.estimate) out.push_back(*o.result.estimate);
+    }
+    return out;
+  }
+  bool wait_estimates(size_t count) {
+    return sink_.wait_for([&](const auto&, const auto& outputs) {
+      size_t n = 0;
+      for (const auto& o : outputs) n += o.result.estimate.has_value();
+      return n >= count;
+    });
   }
   void TearDown() override {
+    if (workers_) workers_->shutdown(std::chrono::milliseconds(500));
     if (pool_) pool_->shutdown();
   }
+
+  PluginCatalog catalog_;
+  Logger logger_{LogLevel::kError};
   RecordingSink sink_;
+  std::unique_ptr<PluginWorkers> workers_;
   std::unique_ptr<WorkerPool> pool_;
+  std::unique_ptr<SessionEnvironment> environment_;
   std::mutex log_mutex_;
   std::vector<std::pair<LogLevel, std::string>> log_;
 };
 
 TEST_F(SessionTest, MeasurementsRunInStampOrderAcrossKinds) {
   auto session = make(16);
-  auto record = std::make_shared<Record>();
-  // Queued before the plugin runs: arrival order 300, 100, 200 (three kinds).
+  // Queued before the plugin runs: arrival order 300, 100, 200 (two kinds).
   session->push(odometry(300));
   session->push(scan(100));
-  Imu imu;
-  imu.header.stamp_ns = 200;
-  session->push(imu);
-  install(*session, recording(record), "recording", 1);
-  ASSERT_TRUE(wait_used(*session, 3));
-  std::lock_guard<std::mutex> lock(record->mutex);
-  EXPECT_EQ(record->stamps, (std::vector<int64_t>{100, 200, 300}));
+  session->push(scan(200));
+  install(*session, kFixture, 1);
+  ASSERT_TRUE(wait_counted(*session, 3));
+  EXPECT_EQ(output_stamps(), (std::vector<int64_t>{100, 200, 300}));
 }
 
 TEST_F(SessionTest, FullQueueDropsTheOldestAndCountsIt) {
   auto session = make(3);
-  auto record = std::make_shared<Record>();
   for (int64_t stamp = 1; stamp <= 5; ++stamp) session->push(odometry(stamp));
   EXPECT_EQ(session->status().counters.dropped, 2u);
-  install(*session, recording(record), "recording", 1);
-  ASSERT_TRUE(wait_used(*session, 3));
+  install(*session, kFixture, 1);
+  ASSERT_TRUE(wait_counted(*session, 3));
   const auto c = session->status().counters;
   EXPECT_EQ(c.received, 5u);
   EXPECT_EQ(c.used, 3u);
   EXPECT_EQ(c.dropped, 2u);
   EXPECT_EQ(c.updates, 3u);
-  std::lock_guard<std::mutex> lock(record->mutex);
-  EXPECT_EQ(record->stamps, (std::vector<int64_t>{3, 4, 5}));
+  EXPECT_EQ(output_stamps(), (std::vector<int64_t>{3, 4, 5}));
 }
 
 TEST_F(SessionTest, FullQueueDropsTheOldestSensorFrameBeforeAnyOdometry) {
   auto session = make(3);
-  auto record = std::make_shared<Record>();
   session->push(odometry(1));
   session->push(scan(2));
   session->push(odometry(3));
-  session->push(scan(4));  // full: scan 2 goes, odometry 1 stays
+  session->push(scan(4));      // full: scan 2 goes, odometry 1 stays
   session->push(odometry(5));  // full: scan 4 goes
   session->push(odometry(6));  // only odometry left: the oldest, 1, goes
   EXPECT_EQ(session->status().counters.dropped, 3u);
-  install(*session, recording(record), "recording", 1);
-  ASSERT_TRUE(wait_used(*session, 3));
-  std::lock_guard<std::mutex> lock(record->mutex);
-  EXPECT_EQ(record->stamps, (std::vector<int64_t>{3, 5, 6}));
+  install(*session, kFixture, 1);
+  ASSERT_TRUE(wait_counted(*session, 3));
+  EXPECT_EQ(output_stamps(), (std::vector<int64_t>{3, 5, 6}));
 }
 
 TEST_F(SessionTest, StampGoingBackwardsOnAKindIsRejectedAndNamed) {
   auto session = make(16);
-  auto record = std::make_shared<Record>();
-  install(*session, recording(record), "recording", 1);
+  install(*session, kFixture, 1);
   session->push(scan(1300));
   session->push(scan(1200));
   session->push(odometry(1200));  // another kind: its own order
-  ASSERT_TRUE(wait_used(*session, 3));
+  ASSERT_TRUE(wait_counted(*session, 3));
   const auto status = session->status();
   EXPECT_EQ(status.counters.received, 3u);
   EXPECT_EQ(status.counters.rejected, 1u);
@@ -192,138 +184,116 @@ TEST_F(SessionTest, StampGoingBackwardsOnAKindIsRejectedAndNamed) {
 
 TEST_F(SessionTest, PluginInputErrorIsRejectedAndTheSessionGoesOn) {
   auto session = make(16);
-  auto record = std::make_shared<Record>();
-  install(*session, recording(record), "recording", 1);
+  install(*session, kFixture, 1);
   session->push(scan(10, -1.0f));
   session->push(odometry(20));
-  ASSERT_TRUE(wait_used(*session, 2));
+  ASSERT_TRUE(wait_counted(*session, 2));
   const auto status = session->status();
   EXPECT_EQ(status.counters.rejected, 1u);
   EXPECT_EQ(status.counters.used, 1u);
-  EXPECT_NE(status.last_error.find("locd/scan: negative range"), std::string::npos) << status.last_error;
-  ASSERT_TRUE(sink_.wait_for([](const auto&, const auto& outputs) {
-    return !outputs.empty() && outputs.back().result.estimate && outputs.back().result.estimate->header.stamp_ns == 20;
-  }));
+  EXPECT_EQ(status.last_error, "locd/scan: scan has no valid return");
+  ASSERT_TRUE(wait_estimates(1));
+  EXPECT_EQ(estimates().back().header.stamp_ns, 20);
 }
 
-TEST_F(SessionTest, NeverTwoUpdatesAtOnce) {
-  auto session = make(10000, 4);
-  auto record = std::make_shared<Record>();
-  install(*session, recording(record, std::chrono::microseconds(200)), "recording", 1);
+TEST_F(SessionTest, TwoProducersAreServedOneRequestAtATimeInStampOrderPerKind) {
+  auto session = make(10000);
+  install(*session, faulty("work_ms: 0.2"), 1);
   // Two producers (like two listener threads) push interleaved stamps of two kinds.
-  std::thread odometry_thread([&] { for (int64_t i = 0; i < 200; ++i) session->push(odometry(2 * i)); });
-  std::thread scan_thread([&] { for (int64_t i = 0; i < 200; ++i) session->push(scan(2 * i + 1)); });
+  std::thread odometry_thread([&] { for (int64_t i = 0; i < 200; ++i) session->push(odometry(2 * i + 2)); });
+  std::thread scan_thread([&] { for (int64_t i = 0; i < 200; ++i) session->push(scan(2 * i + 3)); });
   odometry_thread.join();
   scan_thread.join();
-  ASSERT_TRUE(wait_used(*session, 400));
-  EXPECT_EQ(record->max_inside.load(), 1);
+  ASSERT_TRUE(wait_counted(*session, 400));
   EXPECT_EQ(session->status().counters.used, 400u);
+  std::vector<int64_t> odometry_stamps;
+  for (const auto& e : estimates()) odometry_stamps.push_back(e.header.stamp_ns);
+  ASSERT_EQ(odometry_stamps.size(), 200u);
+  EXPECT_TRUE(std::is_sorted(odometry_stamps.begin(), odometry_stamps.end()));
 }
 
-TEST_F(SessionTest, SwitchHandsTheLastPublishedPoseToTheNewPlugin) {
+TEST_F(SessionTest, SwitchHandsTheRobotsPoseToTheNewPluginFollowingTheOdometry) {
   auto session = make(16);
-  auto old_record = std::make_shared<Record>();
-  auto new_record = std::make_shared<Record>();
-  install(*session, recording(old_record), "old_plugin", 1);
-  session->push(odometry(4000));  // old plugin publishes x = 4.0
-  ASSERT_TRUE(wait_used(*session, 1));
-  install(*session, recording(new_record), "new_plugin", 2);
-  EXPECT_EQ(old_record->destroyed.load(), 1);
-  {
-    std::lock_guard<std::mutex> lock(new_record->mutex);
-    ASSERT_EQ(new_record->poses_set.size(), 1u);
-    EXPECT_DOUBLE_EQ(new_record->poses_set[0].pose.translation().x(), 4.0);
-    EXPECT_EQ(new_record->poses_set[0].header.stamp_ns, 4000);
-  }
-  session->push(odometry(5000));
-  ASSERT_TRUE(wait_used(*session, 2));
-  std::lock_guard<std::mutex> lock(new_record->mutex);
-  EXPECT_EQ(new_record->stamps, (std::vector<int64_t>{5000}));
-  EXPECT_EQ(session->status().plugin, "new_plugin");
+  install(*session, kFixture, 1);
+  session->set_pose(pose_at(10.0, 2.0));
+  session->push(odometry(1000, 1.0));  // anchors the set pose: x = 10
+  session->push(odometry(4000, 4.0));  // x = 13
+  ASSERT_TRUE(wait_estimates(2));
+  EXPECT_NEAR(estimates().back().pose.translation().x(), 13.0, 1e-9);
+  install(*session, faulty(""), 2);
+  // The new plugin takes the pose at its first odometry: map_from_odom of the last estimate
+  // carried to x = 5, so it continues at 14 where the old plugin would have been.
+  session->push(odometry(5000, 5.0));
+  ASSERT_TRUE(wait_estimates(3));
+  const auto last = estimates().back();
+  EXPECT_NEAR(last.pose.translation().x(), 14.0, 1e-9);
+  EXPECT_NEAR(last.pose.translation().y(), 2.0, 1e-9);
+  EXPECT_EQ(session->status().plugin, "faulty");
 }
 
 TEST_F(SessionTest, FailedSwitchKeepsTheOldPluginAndReportsTheError) {
   auto session = make(16);
-  auto record = std::make_shared<Record>();
-  install(*session, recording(record), "old_plugin", 1);
-  const uint64_t generation = session->begin_request(2);
-  EXPECT_TRUE(session->fail_request(generation, 2, "parameter 'x.noise' = -1 is out of range"));
+  install(*session, kFixture, 1);
+  request(*session, "plugin: fixture_odometry\nparams: {position_stddev: -1}\n", 2);
+  ASSERT_TRUE(sink_.wait_status("robot", [](const auto& s) { return s.request_id == 2 && !s.request_ok; }));
   const auto status = session->status();
   EXPECT_EQ(status.state, SessionState::kRunning);
-  EXPECT_EQ(status.plugin, "old_plugin");
-  EXPECT_EQ(status.request_id, 2u);
-  EXPECT_FALSE(status.request_ok);
-  EXPECT_EQ(status.message, "parameter 'x.noise' = -1 is out of range");
+  EXPECT_EQ(status.plugin, "fixture_odometry");
+  EXPECT_NE(status.message.find("position_stddev"), std::string::npos) << status.message;
   session->push(odometry(10));
-  ASSERT_TRUE(wait_used(*session, 1));
-  EXPECT_EQ(record->destroyed.load(), 0);
-  std::lock_guard<std::mutex> lock(record->mutex);
-  EXPECT_EQ(record->stamps, (std::vector<int64_t>{10}));
+  ASSERT_TRUE(wait_counted(*session, 1));
+  EXPECT_EQ(output_stamps(), (std::vector<int64_t>{10}));
 }
 
 TEST_F(SessionTest, SupersededRequestIsNotInstalled) {
   auto session = make(16);
-  auto first = std::make_shared<Record>();
-  auto second = std::make_shared<Record>();
   const uint64_t g1 = session->begin_request(1);
   const uint64_t g2 = session->begin_request(2);
-  session->install(g2, 2, recording(second), "second", "ok");
-  session->install(g1, 1, recording(first), "first", "ok");
+  session->start(g2, 2, catalog_.require("faulty"), PluginConfigText{faulty(""), "test", {}}, "test");
+  session->start(g1, 1, catalog_.require("fixture_odometry"), PluginConfigText{kFixture, "test", {}}, "test");
   session->push(odometry(1));
-  ASSERT_TRUE(wait_used(*session, 1));
-  EXPECT_EQ(session->status().plugin, "second");
-  EXPECT_EQ(first->destroyed.load(), 1);
+  ASSERT_TRUE(wait_counted(*session, 1));
+  EXPECT_EQ(session->status().plugin, "faulty");
+  EXPECT_EQ(sink_.outputs().back().plugin, "faulty");
 }
 
 TEST_F(SessionTest, StopReleasesThePluginAndRefusesFurtherMessages) {
   auto session = make(16);
-  auto record = std::make_shared<Record>();
-  install(*session, recording(record), "recording", 1);
+  install(*session, kFixture, 1);
+  ASSERT_EQ(workers_->worker_count(), 1u);
   session->stop(2, "stopped by request 2");
   ASSERT_TRUE(sink_.wait_status("robot", [](const auto& s) { return s.state == SessionState::kStopped; }));
-  EXPECT_EQ(record->destroyed.load(), 1);
   EXPECT_FALSE(session->push(odometry(1)));
+  // Its last instance released, the worker process ends.
+  for (int i = 0; i < 500 && workers_->worker_count() > 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_EQ(workers_->worker_count(), 0u);
 }
 
-TEST_F(SessionTest, InitialPoseReachesThePluginOnItsStrand) {
+TEST_F(SessionTest, InitialPoseReachesThePluginAheadOfQueuedMeasurements) {
   auto session = make(16);
-  auto record = std::make_shared<Record>();
-  install(*session, recording(record), "recording", 1);
-  PoseEstimate pose;
-  pose.pose.translation() = Eigen::Vector3d(7.0, -1.0, 0.0);
-  session->set_pose(pose);
+  install(*session, kFixture, 1);
+  session->set_pose(pose_at(7.0, -1.0));
   session->push(odometry(1));
-  ASSERT_TRUE(wait_used(*session, 1));
-  std::lock_guard<std::mutex> lock(record->mutex);
-  ASSERT_EQ(record->poses_set.size(), 1u);
-  EXPECT_DOUBLE_EQ(record->poses_set[0].pose.translation().x(), 7.0);
+  ASSERT_TRUE(wait_estimates(1));
+  EXPECT_NEAR(estimates().back().pose.translation().x(), 7.0, 1e-9);
+  EXPECT_EQ(session->status().initial_pose_stamp_ns, 1);
 }
-
-}  // namespace
-
-namespace {
 
 TEST_F(SessionTest, ANewRequestAcceptsARestartedRobotsClock) {
   auto session = make(16);
-  auto record = std::make_shared<Record>();
-  install(*session, recording(record), "recording", 1);
+  install(*session, kFixture, 1);
   session->push(odometry(5000));
-  ASSERT_TRUE(wait_used(*session, 1));
-  install(*session, recording(std::make_shared<Record>()), "recording", 2);
+  ASSERT_TRUE(wait_counted(*session, 1));
+  install(*session, kFixture, 2);
   session->push(odometry(10));  // the robot restarted: its clock begins again
-  ASSERT_TRUE(wait_used(*session, 2));
+  ASSERT_TRUE(wait_counted(*session, 2));
   EXPECT_EQ(session->status().counters.rejected, 0u);
   EXPECT_EQ(session->status().counters.used, 2u);
 }
 
-}  // namespace
-
-namespace {
-
 TEST_F(SessionTest, ARejectionFloodIsCountedInFullAndLoggedWithinItsBudget) {
   auto session = make(16);
-  auto record = std::make_shared<Record>();
-  install(*session, recording(record), "recording", 1);
+  install(*session, kFixture, 1);
   session->push(odometry(1000));
   constexpr int kBad = 200;
   const auto start = std::chrono::steady_clock::now();
@@ -362,6 +332,188 @@ TEST_F(SessionTest, StopCountsTheDiscardedQueueAsDropped) {
   EXPECT_EQ(c.received, 5u);
   EXPECT_EQ(c.dropped, 5u);
   EXPECT_EQ(c.used, 0u);
+}
+
+// ------------------------------------------------------------------------------ faults
+
+struct FaultCase {
+  std::string fault;
+  std::string cause;  // what the status names
+  double update_deadline_s = 10.0;
+};
+
+void PrintTo(const FaultCase& c, std::ostream* out) { *out << c.fault; }
+
+class SessionFaultTest : public SessionTest, public ::testing::WithParamInterface<FaultCase> {};
+
+// The worker dies (or is killed) on the 4th odometry: the status names the plugin, the cause and
+// the message; the session restarts the plugin from the robot's pose and goes on, and the message
+// it died on is counted as rejected, never given again.
+TEST_P(SessionFaultTest, AFailedWorkerIsNamedAndTheSessionResumesFromTheRobotsPose) {
+  FailurePolicy failures;
+  failures.backoff_initial_s = 0.05;
+  auto session = make(64, failures, GetParam().update_deadline_s);
+  install(*session, faulty("fault: " + GetParam().fault + ", after_updates: 3"), 1);
+  session->set_pose(pose_at(10.0, 2.0));
+  for (int k = 1; k <= 3; ++k) session->push(odometry(k * 1000, 0.1 * k));
+  ASSERT_TRUE(wait_estimates(3));
+  session->push(odometry(4000, 0.4));  // strikes
+  const auto failed = sink_.wait_status("robot", [](const auto& s) { return s.failures == 1; });
+  ASSERT_TRUE(failed);
+  EXPECT_EQ(failed->state, SessionState::kRestarting) << failed->last_error;
+  EXPECT_NE(failed->last_error.find("plugin 'faulty' (worker pid "), std::string::npos) << failed->last_error;
+  EXPECT_NE(failed->last_error.find(GetParam().cause), std::string::npos) << failed->last_error;
+  EXPECT_NE(failed->last_error.find("the update of locd/odometry stamped 0.000004 s"), std::string::npos)
+      << failed->last_error;
+  ASSERT_TRUE(sink_.wait_status("robot", [](const auto& s) { return s.state == SessionState::kRunning && s.failures == 1; }));
+  // The restarted plugin (a fresh one: it strikes again only after 3 more updates) resumes where
+  // the robot is, not at its initial pose: the set pose anchored x = 10 at odometry 0.1, the
+  // last estimate was 10.2 at odometry 0.3, so at odometry 0.5 the robot is at 10.4, as the
+  // plugin would have said had it never failed.
+  session->push(odometry(5000, 0.5));
+  ASSERT_TRUE(wait_estimates(4));
+  EXPECT_NEAR(estimates().back().pose.translation().x(), 10.4, 1e-9);
+  EXPECT_NEAR(estimates().back().pose.translation().y(), 2.0, 1e-9);
+  const auto c = session->status().counters;
+  EXPECT_EQ(c.received, 6u);  // the initial pose and five odometry messages
+  EXPECT_EQ(c.rejected, 1u);  // the one it died on
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Faults, SessionFaultTest,
+    ::testing::Values(FaultCase{"segfault", "was killed by signal 11 (SIGSEGV"},
+                      FaultCase{"abort", "was killed by signal 6 (SIGABRT"},
+                      FaultCase{"exit", "exited with code 3"},
+                      FaultCase{"hang", "did not answer the update of locd/odometry stamped 0.000004 s within 0.5 s", 0.5},
+                      FaultCase{"allocate", "ran out of memory (memory_limit_mb = 512)"},
+                      FaultCase{"stack_overflow", "was killed by signal 11 (SIGSEGV"},
+                      FaultCase{"garbage", "broke the worker protocol"}),
+    [](const auto& info) { return info.param.fault; });
+
+TEST_F(SessionTest, APluginThatKeepsFailingIsRestartedWithBackoffThenMarkedFailed) {
+  FailurePolicy failures;
+  failures.max_failures = 3;
+  failures.backoff_initial_s = 0.05;
+  failures.backoff_max_s = 0.1;
+  auto session = make(64, failures);
+  install(*session, faulty("fault: abort"), 1);
+  // Each restart dies on the next odometry; the third failure in a row stops the session.
+  for (int k = 1; k <= 3; ++k) {
+    session->push(odometry(k * 1000));
+    ASSERT_TRUE(sink_.wait_status("robot", [&](const auto& s) { return s.failures == static_cast<uint32_t>(k); }));
+    if (k < 3) {
+      ASSERT_TRUE(sink_.wait_status("robot", [&](const auto& s) {
+        return s.state == SessionState::kRunning && s.failures == static_cast<uint32_t>(k);
+      }));
+    }
+  }
+  const auto status = sink_.wait_status("robot", [](const auto& s) { return s.state == SessionState::kFailed; });
+  ASSERT_TRUE(status);
+  EXPECT_NE(status->last_error.find("failed 3 times in a row (max_failures = 3)"), std::string::npos)
+      << status->last_error;
+  EXPECT_EQ(session->resume_state()->failed, true);
+  EXPECT_EQ(session->resume_state()->request_id, 1u);
+  // Nothing is sent to a failed session's plugin; a new request starts it again.
+  session->push(odometry(9000));
+  install(*session, kFixture, 2);
+  session->push(odometry(10000));
+  ASSERT_TRUE(wait_estimates(1));
+}
+
+class SessionLieTest : public SessionTest, public ::testing::WithParamInterface<std::pair<std::string, std::string>> {};
+
+TEST_P(SessionLieTest, AnUnusableEstimateIsRefusedAndTheSessionGoesOn) {
+  const auto& [fault, why] = GetParam();
+  auto session = make(16);
+  install(*session, faulty("fault: " + fault + ", after_updates: 1"), 1);
+  session->push(odometry(1000));
+  session->push(odometry(2000));  // lies
+  session->push(odometry(3000));  // lies too: every update after the first
+  ASSERT_TRUE(wait_counted(*session, 3));
+  const auto status = session->status();
+  EXPECT_EQ(status.counters.rejected, 2u);
+  EXPECT_EQ(status.failures, 0u);
+  EXPECT_EQ(status.state, SessionState::kRunning);
+  EXPECT_NE(status.last_error.find("plugin 'faulty' returned an unusable estimate for the update of locd/odometry"),
+            std::string::npos)
+      << status.last_error;
+  EXPECT_NE(status.last_error.find(why), std::string::npos) << status.last_error;
+  EXPECT_EQ(estimates().size(), 1u);  // the lies are not published
+}
+
+INSTANTIATE_TEST_SUITE_P(Lies, SessionLieTest,
+                         ::testing::Values(std::make_pair(std::string("nan_pose"), std::string("NaN")),
+                                           std::make_pair(std::string("bad_covariance"),
+                                                          std::string("not positive semi-definite"))),
+                         [](const auto& info) { return info.param.first; });
+
+TEST_F(SessionTest, AThrowingPluginIsRejectedWithoutARestart) {
+  auto session = make(16);
+  install(*session, faulty("fault: throw"), 1);
+  session->push(odometry(1000));
+  ASSERT_TRUE(wait_counted(*session, 1));
+  const auto status = session->status();
+  EXPECT_EQ(status.counters.rejected, 1u);
+  EXPECT_EQ(status.failures, 0u);
+  EXPECT_EQ(status.last_error, "plugin 'faulty' failed on locd/odometry: faulty: thrown on purpose");
+}
+
+TEST_F(SessionTest, APluginThatCrashesWhileConfiguringFailsItsRequest) {
+  auto session = make(16);
+  request(*session, faulty("fault: segfault, fault_in: configure"), 1);
+  const auto status = sink_.wait_status("robot", [](const auto& s) { return s.request_id == 1 && !s.request_ok; });
+  ASSERT_TRUE(status);
+  EXPECT_EQ(status->state, SessionState::kError);
+  EXPECT_NE(status->message.find("was killed by signal 11 (SIGSEGV"), std::string::npos) << status->message;
+  EXPECT_NE(status->message.find("while handling the configure of plugin 'faulty'"), std::string::npos)
+      << status->message;
+}
+
+TEST_F(SessionTest, AnotherSessionsCrashRestartsThisOneAtOnceWithoutCountingAFailure) {
+  WorkerSettings settings;
+  settings.executable = LOCD_WORKER_EXECUTABLE;
+  settings.sessions_per_worker = 2;  // both robots in one worker process
+  workers_ = std::make_unique<PluginWorkers>(settings, Limits{}, logger_);
+  pool_ = std::make_unique<WorkerPool>(2);
+  environment_ = std::make_unique<SessionEnvironment>(
+      SessionEnvironment{*workers_, *pool_, sink_, 16, FailurePolicy{}, worker::ConfigureRequest{}, nullptr});
+  auto victim = std::make_shared<Session>("victim", *environment_, nullptr);
+  auto culprit = std::make_shared<Session>("culprit", *environment_, nullptr);
+  auto start = [&](Session& s, const std::string& yaml) {
+    const uint64_t generation = s.begin_request(1);
+    s.start(generation, 1, catalog_.require("faulty"), PluginConfigText{yaml, "test", {}}, "test");
+    ASSERT_TRUE(sink_.wait_status(s.robot_id(), [](const auto& st) { return st.state == SessionState::kRunning; }));
+  };
+  start(*victim, faulty(""));
+  start(*culprit, faulty("fault: segfault"));
+  EXPECT_EQ(workers_->worker_count(), 1u);
+  victim->set_pose(pose_at(3.0, 0.0));
+  victim->push(odometry(1000, 1.0));
+  ASSERT_TRUE(sink_.wait_for([](const auto&, const auto& outputs) {
+    for (const auto& o : outputs) {
+      if (o.robot_id == "victim" && o.result.estimate) return true;
+    }
+    return false;
+  }));
+  culprit->push(odometry(1000));
+  ASSERT_TRUE(sink_.wait_status("culprit", [](const auto& s) { return s.failures == 1; }));
+  const auto restarted = sink_.wait_status("victim", [](const auto& s) { return s.state == SessionState::kRestarting; });
+  ASSERT_TRUE(restarted);
+  EXPECT_EQ(restarted->failures, 0u);
+  EXPECT_NE(restarted->last_error.find("another session's request; this one restarts"), std::string::npos)
+      << restarted->last_error;
+  ASSERT_TRUE(sink_.wait_status("victim", [](const auto& s) { return s.state == SessionState::kRunning; }));
+  victim->push(odometry(2000, 2.0));
+  ASSERT_TRUE(sink_.wait_for([](const auto&, const auto& outputs) {
+    for (const auto& o : outputs) {
+      if (o.robot_id == "victim" && o.result.estimate && o.result.estimate->header.stamp_ns == 2000) {
+        return std::abs(o.result.estimate->pose.translation().x() - 4.0) < 1e-9;
+      }
+    }
+    return false;
+  }));
+  victim->stop(2, "done");
+  culprit->stop(2, "done");
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "locd/sdk/params.hpp"
 
@@ -21,6 +22,16 @@ struct PluginConfig {
   Params params;
 };
 
+// A plugin config as text, so that it can travel to the worker process that runs the plugin and
+// be parsed there with the same line and column numbers in every message: `yaml` is the whole
+// document it stands in, `path` the keys leading to it inside (empty for a robot's config file or
+// a session request; {"sessions", "2", "config"} for a config inline in the server's own).
+struct PluginConfigText {
+  std::string yaml;
+  std::string source;
+  std::vector<std::string> path;
+};
+
 // Throws ConfigError unless `name` matches [a-z][a-z0-9_]{0,63}; a name with '/' or '.' gets
 // "plugin must be a name, not a path". `what` prefixes the message (e.g. "session request").
 void check_plugin_name(const std::string& name, const std::string& what);
@@ -29,5 +40,7 @@ void check_plugin_name(const std::string& name, const std::string& what);
 PluginConfig split_plugin_config(const std::string& yaml_text, const std::string& source_name);
 // Same for a document already parsed (e.g. an inline map inside the server's config).
 PluginConfig split_plugin_config(const Params& document, const std::string& source_name);
+// Same for a config given as text and a path inside it.
+PluginConfig split_plugin_config(const PluginConfigText& text);
 
 }  // namespace locd

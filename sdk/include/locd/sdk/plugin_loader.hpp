@@ -56,6 +56,8 @@ class PluginCatalog {
 
   std::vector<std::string> names() const;
   std::shared_ptr<const PluginLibrary> find(const std::string& name) const;  // null if absent
+  // The library of `name`; an unknown name is a ConfigError listing the known plugins.
+  std::shared_ptr<const PluginLibrary> require(const std::string& name) const;
   // Creates an instance; an unknown name is a ConfigError listing the known plugins.
   LocalizerPtr create(const std::string& name) const;
   const std::vector<std::string>& rejected() const { return rejected_; }
@@ -69,5 +71,6 @@ class PluginCatalog {
 // anything else it throws becomes a ConfigError naming the plugin.
 LocalizerPtr create_configured(const PluginCatalog& catalog, const std::string& plugin,
                                const PluginContext& context, const Params& params);
+LocalizerPtr create_configured(const PluginLibrary& library, const PluginContext& context, const Params& params);
 
 }  // namespace locd

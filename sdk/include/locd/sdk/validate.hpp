@@ -26,4 +26,9 @@ void validate(const Image& image);              // positive size, mono8 or bgr8,
 void validate(const LandmarkDetections& frame); // finite positions and covariances
 void validate(const Measurement& measurement);  // whichever it holds
 
+// What a plugin returns, checked by the server before it is published (a plugin runs in a worker
+// process and is trusted no more than the network): a finite pose with an orthonormal rotation,
+// and a finite, symmetric, positive semi-definite covariance. Throws InputError saying what is wrong.
+void validate(const PoseEstimate& estimate);
+
 }  // namespace locd

@@ -1,7 +1,7 @@
-// The session router: one Session per robot, plugin requests configured on the worker pool,
-// messages for robots without a session answered on the status topic. Free of DDS: the bridge
-// calls the on_* methods (from listener threads; none of them blocks) and publishes through
-// the OutputSink.
+// The session router: one Session per robot, plugins run in worker processes (PluginWorkers),
+// messages for robots without a session answered on the status topic, and the sessions' resume
+// states kept in the state directory for the next run. Free of DDS: the bridge calls the on_*
+// methods (from listener threads; none of them blocks) and publishes through the OutputSink.
 #pragma once
 
 #include <chrono>
@@ -13,6 +13,8 @@
 #include "locd/sdk/plugin_loader.hpp"
 #include "locd/server/log.hpp"
 #include "locd/server/output_sink.hpp"
+#include "locd/server/plugin_workers.hpp"
+#include "locd/server/resume.hpp"
 #include "locd/server/server_config.hpp"
 #include "locd/server/session.hpp"
 #include "locd/server/worker_pool.hpp"
@@ -53,15 +55,20 @@ class Server {
   std::shared_ptr<Session> find(const std::string& robot_id) const;
   uint64_t messages_without_session() const;
 
-  // Stops accepting work, discards queued tasks, joins the workers, releases every plugin.
-  void shutdown();
+  // Writes every session's resume state to the state directory (when it has one and anything
+  // changed since the last call); I/O errors are logged. Called once per status period.
+  void save_state();
+
+  // Stops accepting work, discards queued tasks, ends every worker process (killing those that
+  // do not exit within `grace`), releases every session.
+  void shutdown(std::chrono::milliseconds grace = std::chrono::milliseconds(1000));
 
   const ServerConfig& config() const { return config_; }
-  PluginContext context_for(const std::string& robot_id);
+  PluginWorkers& workers() { return workers_; }
 
  private:
   void start_plugin(const std::shared_ptr<Session>& session, uint64_t generation, uint64_t request_id,
-                    const PluginConfig& config, const std::string& source);
+                    const std::string& plugin, const PluginConfigText& text, const std::string& source);
   void handle_start(const std::shared_ptr<Session>& session, uint64_t generation, const SessionRequestMessage& request);
   void abandon_if_failed(const std::shared_ptr<Session>& session, uint64_t generation);
   std::shared_ptr<Session> create_session_locked(const std::string& robot_id);
@@ -72,7 +79,11 @@ class Server {
   OutputSink& sink_;
   Logger& logger_;
   WorkerPool pool_;
+  PluginWorkers workers_;
+  SessionEnvironment environment_;
+  StateFile state_file_;
   int64_t started_ns_;
+  std::chrono::steady_clock::time_point started_;
 
   mutable std::mutex mutex_;
   std::map<std::string, std::shared_ptr<Session>> sessions_;
@@ -86,6 +97,8 @@ class Server {
   uint64_t refused_robot_ids_ = 0;
   uint64_t refused_robot_ids_not_logged_ = 0;
   std::chrono::steady_clock::time_point last_refusal_log_{};
+  std::map<std::string, ResumeState> saved_;  // the last run's states, given to sessions as they start
+  std::string last_saved_;                     // what save_state wrote last (to skip unchanged writes)
 };
 
 }  // namespace locd::server

@@ -11,6 +11,7 @@
 
 #include "locd/sdk/plugin.hpp"
 #include "locd/sdk/plugin_config.hpp"
+#include "locd/server/plugin_workers.hpp"
 
 namespace locd::server {
 
@@ -18,6 +19,7 @@ namespace locd::server {
 struct BootSession {
   std::string robot_id;
   PluginConfig config;                       // plugin name and its params
+  PluginConfigText text;                     // the same as text, for the plugin's worker process
   std::string source;                        // where the config came from, for messages
   std::optional<std::array<double, 3>> initial_pose;  // x, y, yaw
 };
@@ -28,13 +30,16 @@ struct ServerConfig {
   std::vector<std::filesystem::path> plugin_directories;
   std::vector<std::filesystem::path> map_directories;
   std::filesystem::path output_directory;  // where plugins may write (saved maps); empty = nowhere
-  int workers = 2;
+  int workers = 2;  // threads for the server's own work (requests, statuses); plugins run in worker processes
   int queue_depth = 64;
   size_t max_sessions = 256;  // robots served at once; requests beyond are refused
   double status_period_s = 1.0;
   Limits limits;
   LogLevel log_level = LogLevel::kInfo;
   std::vector<BootSession> sessions;
+  WorkerSettings plugin_workers;            // how plugins run: worker processes, deadlines, memory
+  FailurePolicy failures;                   // restarts of failed plugins
+  std::filesystem::path state_directory;    // where sessions' resume states survive a restart; empty = nowhere
 
   // `base_directory` anchors relative paths (the config file's folder).
   static ServerConfig parse(const std::string& yaml_text, const std::string& source_name,
@@ -43,5 +48,7 @@ struct ServerConfig {
 };
 
 std::string default_server_id();
+// locd-worker next to the running executable.
+std::filesystem::path default_worker_executable();
 
 }  // namespace locd::server

@@ -1,0 +1,642 @@
+#include "locd/server/plugin_workers.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/epoll.h>
+#include <sys/eventfd.h>
+#include <sys/socket.h>
+#include <sys/syscall.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <deque>
+#include <future>
+#include <sstream>
+#include <stdexcept>
+
+extern char** environ;
+
+namespace locd::server {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// How often the I/O thread looks at deadlines and timers when nothing else wakes it.
+constexpr int kTickMs = 25;
+constexpr size_t kReadChunk = 256 * 1024;
+// The channel's fd number inside the worker (locd-worker --channel-fd).
+constexpr int kWorkerChannelFd = 3;
+// After a SIGKILL, how long shutdown waits for the kernel to reap a worker.
+constexpr auto kReapAfterKill = std::chrono::milliseconds(1000);
+
+int pidfd_open(pid_t pid) { return static_cast<int>(::syscall(SYS_pidfd_open, pid, 0)); }
+int pidfd_send_signal(int pidfd, int signal) {
+  return static_cast<int>(::syscall(SYS_pidfd_send_signal, pidfd, signal, nullptr, 0));
+}
+
+std::string signal_description(int signal) {
+  const char* abbreviation = sigabbrev_np(signal);
+  const char* text = strsignal(signal);
+  return "signal " + std::to_string(signal) + " (" + (abbreviation ? std::string("SIG") + abbreviation : "?") +
+         (text ? std::string(", ") + text : "") + ")";
+}
+
+std::string seconds(double s) {
+  std::ostringstream out;
+  out << s << " s";
+  return out.str();
+}
+
+}  // namespace
+
+size_t WorkerSettings::sessions_per_worker_of(const std::string& plugin) const {
+  auto it = plugins.find(plugin);
+  return it != plugins.end() && it->second.sessions_per_worker ? *it->second.sessions_per_worker : sessions_per_worker;
+}
+
+double WorkerSettings::deadline_s(const std::string& plugin, worker::Op op) const {
+  auto it = plugins.find(plugin);
+  if (op == worker::Op::kConfigure) {
+    return it != plugins.end() && it->second.configure_deadline_s ? *it->second.configure_deadline_s
+                                                                  : configure_deadline_s;
+  }
+  return it != plugins.end() && it->second.update_deadline_s ? *it->second.update_deadline_s : update_deadline_s;
+}
+
+struct PluginWorkers::SpawnRequest {
+  std::shared_ptr<const PluginLibrary> library;
+  std::promise<std::shared_ptr<Worker>> result;
+};
+
+struct PluginWorkers::Worker {
+  uint64_t key = 0;
+  pid_t pid = 0;
+  int pidfd = -1;
+  int fd = -1;
+  std::string plugin;
+
+  struct Request {
+    uint64_t instance;
+    worker::Op op;
+    std::string what;
+    double deadline_s;
+  };
+
+  std::mutex mutex;  // everything below but `inbox`
+  std::string outbox;
+  size_t outbox_sent = 0;
+  bool writing = false;  // EPOLLOUT registered
+  std::deque<Request> in_flight;
+  Clock::time_point front_since;
+  size_t instances = 0;
+  bool closed = false;   // accepts no more requests
+  bool retired = false;  // closed by the server: its last instance was released
+  bool deadline_missed = false;
+  std::string kill_reason;
+
+  std::string inbox;  // I/O thread only
+};
+
+PluginWorkers::PluginWorkers(WorkerSettings settings, Limits limits, Logger& logger)
+    : settings_(std::move(settings)), limits_(limits), max_payload_(worker::max_payload_bytes(limits)),
+      logger_(logger) {
+  epoll_ = epoll_create1(EPOLL_CLOEXEC);
+  wake_ = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+  if (epoll_ < 0 || wake_ < 0) throw std::runtime_error(std::string("epoll/eventfd: ") + std::strerror(errno));
+  epoll_event event{};
+  event.events = EPOLLIN;
+  event.data.u64 = 0;
+  epoll_ctl(epoll_, EPOLL_CTL_ADD, wake_, &event);
+  io_ = std::thread([this] { run(); });
+}
+
+PluginWorkers::~PluginWorkers() {
+  shutdown(std::chrono::milliseconds(1000));
+  close(epoll_);
+  close(wake_);
+}
+
+std::shared_ptr<PluginWorkers::Worker> PluginWorkers::start_worker(const std::shared_ptr<const PluginLibrary>& library) {
+  int channel[2];
+  if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, channel) != 0) {
+    throw std::runtime_error(std::string("cannot make a worker channel: ") + std::strerror(errno));
+  }
+  const std::string exe = settings_.executable.string();
+  const std::string limits = std::to_string(limits_.max_scan_beams) + "," + std::to_string(limits_.max_cloud_points) +
+                             "," + std::to_string(limits_.max_image_pixels) + "," +
+                             std::to_string(limits_.max_detections) + "," + std::to_string(limits_.max_particles) +
+                             "," + std::to_string(limits_.max_map_cells);
+  const std::vector<std::string> arguments = {exe,
+                                              "--plugin",
+                                              library->file().string(),
+                                              "--channel-fd",
+                                              std::to_string(kWorkerChannelFd),
+                                              "--parent",
+                                              std::to_string(getpid()),
+                                              "--memory-limit-mb",
+                                              std::to_string(settings_.memory_limit_mb),
+                                              "--limits",
+                                              limits};
+  std::vector<char*> argv;
+  for (const auto& a : arguments) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, channel[1], kWorkerChannelFd);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addclosefrom_np(&actions, kWorkerChannelFd + 1);
+  pid_t pid = 0;
+  const int rc = posix_spawn(&pid, exe.c_str(), &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  close(channel[1]);
+  if (rc != 0) {
+    close(channel[0]);
+    throw std::runtime_error("cannot start the plugin worker '" + exe + "': " + std::strerror(rc));
+  }
+  const int pidfd = pidfd_open(pid);
+  if (pidfd < 0) {
+    const int error = errno;
+    ::kill(pid, SIGKILL);
+    waitpid(pid, nullptr, 0);
+    close(channel[0]);
+    throw std::runtime_error(std::string("pidfd_open: ") + std::strerror(error));
+  }
+  fcntl(channel[0], F_SETFL, fcntl(channel[0], F_GETFL) | O_NONBLOCK);
+
+  auto worker = std::make_shared<Worker>();
+  worker->pid = pid;
+  worker->pidfd = pidfd;
+  worker->fd = channel[0];
+  worker->plugin = library->name();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    worker->key = next_worker_key_++;
+    workers_[worker->key] = worker;
+  }
+  epoll_event event{};
+  event.events = EPOLLIN | EPOLLRDHUP;
+  event.data.u64 = worker->key * 2;
+  epoll_ctl(epoll_, EPOLL_CTL_ADD, worker->fd, &event);
+  event.events = EPOLLIN;
+  event.data.u64 = worker->key * 2 + 1;
+  epoll_ctl(epoll_, EPOLL_CTL_ADD, worker->pidfd, &event);
+  logger_.log(LogLevel::kDebug, "server", "started worker pid " + std::to_string(pid) + " for plugin " + worker->plugin);
+  return worker;
+}
+
+std::shared_ptr<PluginWorkers::Worker> PluginWorkers::start_worker_on_io_thread(
+    const std::shared_ptr<const PluginLibrary>& library) {
+  // A worker dies with the thread that started it (PR_SET_PDEATHSIG), so only the I/O thread,
+  // which lives as long as the workers, starts them.
+  if (std::this_thread::get_id() == io_.get_id()) return start_worker(library);
+  auto request = std::make_shared<SpawnRequest>();
+  request->library = library;
+  auto result = request->result.get_future();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopping_) throw std::runtime_error("the server is shutting down");
+    spawns_.push_back(request);
+  }
+  const uint64_t one = 1;
+  [[maybe_unused]] const ssize_t n = ::write(wake_, &one, sizeof one);
+  return result.get();
+}
+
+void PluginWorkers::run_spawn_requests() {
+  std::vector<std::shared_ptr<SpawnRequest>> requests;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    requests.swap(spawns_);
+  }
+  for (const auto& request : requests) {
+    try {
+      request->result.set_value(start_worker(request->library));
+    } catch (...) {
+      request->result.set_exception(std::current_exception());
+    }
+  }
+}
+
+uint64_t PluginWorkers::create_instance(const std::shared_ptr<const PluginLibrary>& library,
+                                        std::weak_ptr<InstanceOwner> owner) {
+  const size_t capacity = std::max<size_t>(1, settings_.sessions_per_worker_of(library->name()));
+  std::shared_ptr<Worker> chosen;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopping_) throw std::runtime_error("the server is shutting down");
+    for (const auto& [_, w] : workers_) {
+      std::lock_guard<std::mutex> worker_lock(w->mutex);
+      if (w->plugin == library->name() && !w->closed && w->instances < capacity) {
+        chosen = w;
+        break;
+      }
+    }
+  }
+  if (!chosen) chosen = start_worker_on_io_thread(library);
+  std::lock_guard<std::mutex> lock(mutex_);
+  const uint64_t instance = next_instance_++;
+  instances_[instance] = {chosen, std::move(owner)};
+  std::lock_guard<std::mutex> worker_lock(chosen->mutex);
+  ++chosen->instances;
+  return instance;
+}
+
+bool PluginWorkers::send(uint64_t instance, worker::Op op, std::string frame, std::string what) {
+  std::shared_ptr<Worker> w;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = instances_.find(instance);
+    if (stopping_ || it == instances_.end()) return false;
+    w = it->second.worker;
+  }
+  std::lock_guard<std::mutex> lock(w->mutex);
+  return queue_locked(*w, instance, op, std::move(frame), std::move(what));
+}
+
+bool PluginWorkers::queue_locked(Worker& w, uint64_t instance, worker::Op op, std::string frame, std::string what) {
+  if (w.closed) return false;
+  if (w.in_flight.empty()) w.front_since = Clock::now();
+  w.in_flight.push_back({instance, op, std::move(what), settings_.deadline_s(w.plugin, op)});
+  if (w.outbox_sent == w.outbox.size()) {
+    w.outbox.clear();
+    w.outbox_sent = 0;
+  }
+  if (w.outbox.empty()) {
+    w.outbox = std::move(frame);
+  } else {
+    w.outbox.append(frame);
+  }
+  // Write what the socket takes now; the I/O thread writes the rest when it can.
+  write_some_locked(w);
+  if (w.outbox_sent < w.outbox.size() && !w.writing) {
+    epoll_event event{};
+    event.events = EPOLLIN | EPOLLRDHUP | EPOLLOUT;
+    event.data.u64 = w.key * 2;
+    epoll_ctl(epoll_, EPOLL_CTL_MOD, w.fd, &event);
+    w.writing = true;
+  }
+  return true;
+}
+
+void PluginWorkers::write_some_locked(Worker& w) {
+  while (w.outbox_sent < w.outbox.size()) {
+    const ssize_t n = ::send(w.fd, w.outbox.data() + w.outbox_sent, w.outbox.size() - w.outbox_sent, MSG_NOSIGNAL);
+    if (n > 0) {
+      w.outbox_sent += static_cast<size_t>(n);
+    } else if (n < 0 && errno == EINTR) {
+      continue;
+    } else {
+      break;  // EAGAIN: later; EPIPE: the worker is ending, its reaping reports it
+    }
+  }
+}
+
+void PluginWorkers::release(uint64_t instance) {
+  std::shared_ptr<Worker> w;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = instances_.find(instance);
+    if (it == instances_.end()) return;
+    w = it->second.worker;
+    instances_.erase(it);
+  }
+  std::lock_guard<std::mutex> lock(w->mutex);
+  --w->instances;
+  if (w->instances == 0 && !w->closed) {
+    // Its last instance: the worker ends (it reads the end of its channel and exits).
+    w->closed = true;
+    w->retired = true;
+    ::shutdown(w->fd, SHUT_WR);
+    return;
+  }
+  std::string frame;
+  worker::append_request(frame, instance, worker::Op::kRelease);
+  queue_locked(*w, instance, worker::Op::kRelease, std::move(frame), "release of an instance");
+}
+
+void PluginWorkers::after(std::chrono::steady_clock::duration delay, std::function<void()> task) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopping_) return;
+    timers_.push_back({Clock::now() + delay, std::move(task)});
+  }
+  const uint64_t one = 1;
+  [[maybe_unused]] const ssize_t n = ::write(wake_, &one, sizeof one);
+}
+
+void PluginWorkers::flush(const std::shared_ptr<Worker>& w) {
+  std::lock_guard<std::mutex> lock(w->mutex);
+  write_some_locked(*w);
+  if (w->outbox_sent == w->outbox.size() && w->writing) {
+    w->outbox.clear();
+    w->outbox_sent = 0;
+    epoll_event event{};
+    event.events = EPOLLIN | EPOLLRDHUP;
+    event.data.u64 = w->key * 2;
+    epoll_ctl(epoll_, EPOLL_CTL_MOD, w->fd, &event);
+    w->writing = false;
+  }
+}
+
+std::shared_ptr<InstanceOwner> PluginWorkers::owner_of(uint64_t instance) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (stopping_) return nullptr;
+  auto it = instances_.find(instance);
+  return it == instances_.end() ? nullptr : it->second.owner.lock();
+}
+
+void PluginWorkers::read_from(const std::shared_ptr<Worker>& w) {
+  char chunk[kReadChunk];
+  bool ended = false;
+  for (;;) {
+    const ssize_t n = ::read(w->fd, chunk, sizeof chunk);
+    if (n > 0) {
+      w->inbox.append(chunk, static_cast<size_t>(n));
+      if (static_cast<size_t>(n) < sizeof chunk) break;
+    } else if (n == 0) {
+      ended = true;
+      break;
+    } else if (errno == EINTR) {
+      continue;
+    } else {
+      if (errno != EAGAIN && errno != EWOULDBLOCK) ended = true;
+      break;
+    }
+  }
+  size_t offset = 0;
+  try {
+    while (w->inbox.size() - offset >= worker::kFrameHeaderBytes) {
+      const worker::FrameHeader header = worker::parse_header(w->inbox.data() + offset, max_payload_);
+      if (w->inbox.size() - offset - worker::kFrameHeaderBytes < header.length) break;
+      const std::string_view payload(w->inbox.data() + offset + worker::kFrameHeaderBytes, header.length);
+      offset += worker::kFrameHeaderBytes + header.length;
+      if (header.op == static_cast<uint32_t>(worker::Op::kLog)) {
+        const worker::LogLine line = worker::decode_log(payload);
+        if (auto owner = owner_of(header.instance)) owner->on_log(header.instance, line);
+        continue;
+      }
+      if (header.op != static_cast<uint32_t>(worker::Op::kReply)) {
+        throw worker::ProtocolError(std::string("the worker sent a request op (") +
+                                    worker::op_name(static_cast<worker::Op>(header.op)) + ")");
+      }
+      worker::Reply reply = worker::decode_reply(payload, limits_);
+      {
+        std::lock_guard<std::mutex> lock(w->mutex);
+        if (w->in_flight.empty() || w->in_flight.front().instance != header.instance ||
+            w->in_flight.front().op != reply.request) {
+          throw worker::ProtocolError("a reply that answers no request (instance " + std::to_string(header.instance) +
+                                      ", " + worker::op_name(reply.request) + ")");
+        }
+        w->in_flight.pop_front();
+        w->front_since = Clock::now();
+      }
+      if (reply.request == worker::Op::kRelease) continue;
+      if (auto owner = owner_of(header.instance)) owner->on_reply(header.instance, std::move(reply));
+    }
+  } catch (const worker::ProtocolError& e) {
+    w->inbox.clear();
+    kill(w, std::string("broke the worker protocol (") + e.what() + ")");
+    return;
+  }
+  w->inbox.erase(0, offset);
+  if (ended) {
+    // The worker closed its end: it is ending; its pidfd reports when.
+    epoll_ctl(epoll_, EPOLL_CTL_DEL, w->fd, nullptr);
+    std::lock_guard<std::mutex> lock(w->mutex);
+    w->closed = true;
+  }
+}
+
+void PluginWorkers::kill(const std::shared_ptr<Worker>& w, const std::string& reason) {
+  std::lock_guard<std::mutex> lock(w->mutex);
+  if (w->kill_reason.empty()) w->kill_reason = reason;
+  w->closed = true;
+  pidfd_send_signal(w->pidfd, SIGKILL);
+}
+
+void PluginWorkers::reap(const std::shared_ptr<Worker>& w) {
+  siginfo_t info{};
+  if (waitid(static_cast<idtype_t>(P_PIDFD), static_cast<id_t>(w->pidfd), &info, WEXITED | WNOHANG) != 0 ||
+      info.si_pid == 0) {
+    return;  // not ended yet
+  }
+  std::deque<Worker::Request> in_flight;
+  std::string kill_reason;
+  bool retired = false;
+  bool deadline_missed = false;
+  {
+    std::lock_guard<std::mutex> lock(w->mutex);
+    w->closed = true;
+    in_flight.swap(w->in_flight);
+    kill_reason = w->kill_reason;
+    retired = w->retired;
+    deadline_missed = w->deadline_missed;
+  }
+  epoll_ctl(epoll_, EPOLL_CTL_DEL, w->fd, nullptr);
+  epoll_ctl(epoll_, EPOLL_CTL_DEL, w->pidfd, nullptr);
+  close(w->fd);
+  close(w->pidfd);
+
+  std::vector<std::pair<uint64_t, std::weak_ptr<InstanceOwner>>> lost;
+  bool stopping = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    workers_.erase(w->key);
+    for (auto it = instances_.begin(); it != instances_.end();) {
+      if (it->second.worker == w) {
+        lost.emplace_back(it->first, it->second.owner);
+        it = instances_.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    stopping = stopping_;
+  }
+  if (stopping) return;
+  if (retired && lost.empty()) {
+    logger_.log(LogLevel::kDebug, "server", "worker pid " + std::to_string(w->pid) + " of plugin " + w->plugin + " retired");
+    return;
+  }
+
+  std::string cause;
+  if (!kill_reason.empty()) {
+    cause = kill_reason + ", and was killed";
+  } else if (info.si_code == CLD_EXITED) {
+    switch (info.si_status) {
+      case worker::kExitOutOfMemory:
+        cause = "ran out of memory (memory_limit_mb = " + std::to_string(settings_.memory_limit_mb) + ")";
+        break;
+      case worker::kExitCannotStart: cause = "could not start (the server log says why)"; break;
+      case worker::kExitChannelLost: cause = "broke its channel to the server"; break;
+      default: cause = "exited with code " + std::to_string(info.si_status);
+    }
+  } else {
+    cause = "was killed by " + signal_description(info.si_status);
+  }
+  // A worker killed for a missed deadline names the request in its reason already.
+  const std::string where = deadline_missed ? "" : in_flight.empty() ? " while idle" : " while handling the " + in_flight.front().what;
+  const std::string description =
+      "plugin '" + w->plugin + "' (worker pid " + std::to_string(w->pid) + ") " + cause + where;
+  logger_.log(LogLevel::kError, "server", description);
+
+  const bool idle = in_flight.empty();
+  for (const auto& [instance, weak_owner] : lost) {
+    const bool blamed = idle || in_flight.front().instance == instance;
+    WorkerLoss loss;
+    loss.blamed = blamed;
+    loss.description = blamed ? description : description + " (another session's request; this one restarts)";
+    if (auto owner = weak_owner.lock()) owner->on_lost(instance, loss);
+  }
+}
+
+void PluginWorkers::check_deadlines() {
+  std::vector<std::shared_ptr<Worker>> workers;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [_, w] : workers_) workers.push_back(w);
+  }
+  const auto now = Clock::now();
+  for (const auto& w : workers) {
+    std::string reason;
+    {
+      std::lock_guard<std::mutex> lock(w->mutex);
+      if (w->closed || w->in_flight.empty()) continue;
+      const auto& front = w->in_flight.front();
+      if (now - w->front_since < std::chrono::duration<double>(front.deadline_s)) continue;
+      reason = "did not answer the " + front.what + " within " + seconds(front.deadline_s) + " (" +
+               (front.op == worker::Op::kConfigure ? "configure_deadline_s" : "update_deadline_s") + ")";
+      w->deadline_missed = true;
+    }
+    kill(w, reason);
+  }
+}
+
+void PluginWorkers::run_due_timers() {
+  std::vector<std::function<void()>> due;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto now = Clock::now();
+    auto first_later = std::partition(timers_.begin(), timers_.end(), [&](const Timer& t) { return t.due <= now; });
+    for (auto it = timers_.begin(); it != first_later; ++it) due.push_back(std::move(it->task));
+    timers_.erase(timers_.begin(), first_later);
+  }
+  for (auto& task : due) task();
+}
+
+int PluginWorkers::next_wait_ms() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  int wait = kTickMs;
+  const auto now = Clock::now();
+  for (const auto& t : timers_) {
+    const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(t.due - now).count();
+    wait = static_cast<int>(std::clamp<long long>(ms, 0, wait));
+  }
+  return wait;
+}
+
+std::shared_ptr<PluginWorkers::Worker> PluginWorkers::worker_by_key(uint64_t key) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = workers_.find(key);
+  return it == workers_.end() ? nullptr : it->second;
+}
+
+void PluginWorkers::run() {
+  epoll_event events[64];
+  for (;;) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (stopped_) return;
+    }
+    const int n = epoll_wait(epoll_, events, 64, next_wait_ms());
+    for (int i = 0; i < n; ++i) {
+      const uint64_t key = events[i].data.u64;
+      if (key == 0) {
+        uint64_t count = 0;
+        [[maybe_unused]] const ssize_t r = ::read(wake_, &count, sizeof count);
+        continue;
+      }
+      auto w = worker_by_key(key / 2);
+      if (!w) continue;
+      if (key % 2 == 1) {
+        reap(w);
+        continue;
+      }
+      if (events[i].events & EPOLLOUT) flush(w);
+      if (events[i].events & (EPOLLIN | EPOLLRDHUP | EPOLLHUP | EPOLLERR)) read_from(w);
+    }
+    run_spawn_requests();
+    check_deadlines();
+    run_due_timers();
+  }
+}
+
+void PluginWorkers::shutdown(std::chrono::milliseconds grace) {
+  std::vector<std::shared_ptr<Worker>> workers;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopped_) return;
+    stopping_ = true;
+    timers_.clear();
+    for (const auto& [_, w] : workers_) workers.push_back(w);
+  }
+  // A worker reads the end of its channel and exits; a hung one is killed after the grace.
+  for (const auto& w : workers) {
+    std::lock_guard<std::mutex> lock(w->mutex);
+    w->closed = true;
+    ::shutdown(w->fd, SHUT_WR);
+  }
+  auto wait_until_reaped = [&](Clock::time_point deadline) {
+    while (Clock::now() < deadline) {
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (workers_.empty()) return true;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    return false;
+  };
+  if (!wait_until_reaped(Clock::now() + grace)) {
+    std::vector<std::shared_ptr<Worker>> remaining;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      for (const auto& [_, w] : workers_) remaining.push_back(w);
+    }
+    for (const auto& w : remaining) {
+      logger_.log(LogLevel::kWarning, "server",
+                  "worker pid " + std::to_string(w->pid) + " of plugin " + w->plugin +
+                      " did not exit within the shutdown grace; killed");
+      kill(w, "did not exit at shutdown");
+    }
+    wait_until_reaped(Clock::now() + kReapAfterKill);
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopped_ = true;
+  }
+  const uint64_t one = 1;
+  [[maybe_unused]] const ssize_t n = ::write(wake_, &one, sizeof one);
+  if (io_.joinable()) io_.join();
+  for (const auto& request : spawns_) {
+    request->result.set_exception(std::make_exception_ptr(std::runtime_error("the server is shutting down")));
+  }
+  spawns_.clear();
+}
+
+pid_t PluginWorkers::pid_of(uint64_t instance) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = instances_.find(instance);
+  return it == instances_.end() ? 0 : it->second.worker->pid;
+}
+
+size_t PluginWorkers::worker_count() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return workers_.size();
+}
+
+}  // namespace locd::server
