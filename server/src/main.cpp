@@ -139,6 +139,11 @@ void check_boot_sessions(const ServerConfig& config, const PluginCatalog& catalo
 int check_config(const Options& o) {
   try {
     const ServerConfig config = load_config(o);
+    std::error_code ec;
+    if (!fs::is_regular_file(config.plugin_workers.executable, ec)) {
+      throw ConfigError("plugin worker '" + config.plugin_workers.executable.string() +
+                        "' not found; install locd-worker next to locd or set plugin_workers.executable");
+    }
     const PluginCatalog catalog(config.plugin_directories);
     check_boot_sessions(config, catalog);
     std::string plugins;

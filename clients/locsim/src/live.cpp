@@ -1,5 +1,6 @@
 #include "live.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <chrono>
 #include <cstdio>
@@ -92,6 +93,7 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
   }
 
   std::map<int64_t, Published> published;  // by stamp
+  std::vector<int64_t> pose_arrivals_ns;    // wall clock, of the poses scored
   TrajectoryEvaluator evaluator(scenario.convergence_threshold_m);
   auto score_received = [&]() {
     std::vector<PoseUpdate> batch;
@@ -103,6 +105,7 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
       const auto it = published.find(p.estimate.header.stamp_ns);
       if (it == published.end()) continue;  // a pose for a stamp this run never published
       const double latency_ms = static_cast<double>(p.received_wall_ns - it->second.publish_wall_ns) * 1e-6;
+      pose_arrivals_ns.push_back(p.received_wall_ns);
       evaluator.add(it->second.t, Pose2::from_isometry(p.estimate.pose), it->second.truth, p.update_ms, latency_ms);
     }
   };
@@ -163,6 +166,11 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
     result.last_rejection = st.last_error;
   }
   result.summary = evaluator.summary();
+  std::sort(pose_arrivals_ns.begin(), pose_arrivals_ns.end());
+  for (size_t i = 1; i < pose_arrivals_ns.size(); ++i) {
+    const double gap_ms = static_cast<double>(pose_arrivals_ns[i] - pose_arrivals_ns[i - 1]) * 1e-6;
+    result.summary.max_pose_gap_ms = std::max(result.summary.max_pose_gap_ms.value_or(0.0), gap_ms);
+  }
   result.estimates = evaluator.estimates();
   for (const auto& s : simulation.truth().samples()) result.truth_path.push_back(s.pose);
   if (result.summary.updates == 0) {

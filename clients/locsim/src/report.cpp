@@ -41,6 +41,7 @@ void write_json(std::ostream& out, const RunResult& r) {
     json["latency_ms_p99"] = optional(s.latency_ms_p99);
     json["overhead_ms_p50"] = optional(s.overhead_ms_p50);
     json["overhead_ms_p99"] = optional(s.overhead_ms_p99);
+    json["max_pose_gap_ms"] = optional(s.max_pose_gap_ms);
   }
   out << json.dump() << "\n";
 }
@@ -71,6 +72,7 @@ void write_summary(std::ostream& out, const RunResult& r) {
     out << "  latency (scan published -> pose received): p50 " << *s.latency_ms_p50 << " ms, p99 "
         << *s.latency_ms_p99 << " ms; above the plugin's update: p50 " << *s.overhead_ms_p50 << " ms, p99 "
         << *s.overhead_ms_p99 << " ms\n";
+    if (s.max_pose_gap_ms) out << "  longest wait between two poses: " << *s.max_pose_gap_ms << " ms\n";
   }
   if (s.converged) {
     out << "  converged: error below threshold from t = " << *s.convergence_time_s << " s to the end\n";

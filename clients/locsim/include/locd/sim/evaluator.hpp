@@ -33,6 +33,7 @@ struct EvaluationSummary {
   std::optional<double> convergence_time_s;
   std::optional<double> latency_ms_p50, latency_ms_p99;    // live only
   std::optional<double> overhead_ms_p50, overhead_ms_p99;  // latency - update_ms, live only
+  std::optional<double> max_pose_gap_ms;  // live only: longest wall-clock wait between two poses received
 };
 
 class TrajectoryEvaluator {
