@@ -8,7 +8,7 @@
 #include <mutex>
 #include <thread>
 
-#include "locd/mcap/wire_codec.hpp"
+#include "locd/mcap/locd_writer.hpp"
 #include "locd/sdk/robot_id.hpp"
 
 namespace locd::mcap {
@@ -36,7 +36,7 @@ struct Recorder::Impl {
   };
 
   RecorderOptions options;
-  Writer writer;
+  LocdWriter writer;  // used by the writer thread only (and by stop() after it ended)
   dds::Participant participant;
   std::vector<std::unique_ptr<Source>> sources;
 
@@ -48,9 +48,6 @@ struct Recorder::Impl {
   RecorderCounts counts;
   std::thread thread;
 
-  // Owned by the writer thread.
-  std::map<std::string, uint16_t> schema_ids;                                     // type name -> schema
-  std::map<std::pair<const TopicInfo*, std::string>, uint16_t> channel_ids;       // (topic, robot) -> channel
 
   Impl(const std::string& path, const RecorderOptions& o)
       : options(o), writer(path, o.writer), participant(o.domain_id) {
@@ -122,26 +119,6 @@ struct Recorder::Impl {
     wake.notify_one();
   }
 
-  uint16_t channel_for(const Sample& s) {
-    auto key = std::make_pair(s.topic, s.robot_id);
-    auto it = channel_ids.find(key);
-    if (it != channel_ids.end()) return it->second;
-    auto schema = schema_ids.find(s.topic->type_name);
-    if (schema == schema_ids.end()) {
-      schema = schema_ids.emplace(s.topic->type_name, writer.add_schema(s.topic->type_name, kSchemaEncoding, locd_idl())).first;
-    }
-    Metadata metadata{{kMetaDdsTopic, s.topic->topic}};
-    if (s.topic->per_robot) {
-      metadata[kMetaRobotId] = s.robot_id;
-      metadata[kMetaPartition] = topics::robot_partition(s.robot_id);
-    } else {
-      metadata[kMetaPartition] = "";
-    }
-    const uint16_t id = writer.add_channel(schema->second, channel_topic(*s.topic, s.robot_id), kMessageEncoding, metadata);
-    channel_ids.emplace(key, id);
-    return id;
-  }
-
   void write_loop() {
     try {
       write_batches();
@@ -165,17 +142,17 @@ struct Recorder::Impl {
       }
       for (const Sample& s : batch) {
         if (s.topic->per_robot && !robot_id_error(s.robot_id).empty()) continue;  // malformed: not recordable
-        writer.write(channel_for(s), s.log_time, s.publish_time, s.bytes.data(), s.bytes.size());
+        writer.write(*s.topic, s.robot_id, s.log_time, s.publish_time, s.bytes.data(), s.bytes.size());
         std::lock_guard<std::mutex> lock(mutex);
         ++counts.messages;
         counts.bytes += s.bytes.size();
         ++counts.per_topic[s.topic->topic];
       }
       batch.clear();
-      writer.close_chunk_if_older(options.chunk_age);
+      writer.writer().close_chunk_if_older(options.chunk_age);
       {
         std::lock_guard<std::mutex> lock(mutex);
-        counts.file_bytes = writer.bytes_written();
+        counts.file_bytes = writer.writer().bytes_written();
       }
       if (done) return;
     }
@@ -193,9 +170,9 @@ struct Recorder::Impl {
       wake.notify_one();
     }
     if (thread.joinable()) thread.join();
-    writer.close();  // throws when the file cannot be finished
+    writer.writer().close();  // throws when the file cannot be finished
     std::lock_guard<std::mutex> lock(mutex);
-    counts.file_bytes = writer.bytes_written();
+    counts.file_bytes = writer.writer().bytes_written();
   }
 };
 
