@@ -61,22 +61,23 @@ struct FoxgloveServer::Impl {
   std::vector<std::vector<std::pair<Handle, uint32_t>>> subscribers;  // by channel id
 
   std::atomic<uint64_t> refused{0}, errors{0}, sent{0}, dropped{0}, connected{0};
-  // Log lines about client errors: at most 5 a second.
-  std::chrono::steady_clock::time_point log_window;
-  int logged_in_window = 0;
+  // Log lines: at most 5 a second per kind (client errors, refused clients).
+  enum LogKind { kClientError, kRefusal, kLogKinds };
+  std::chrono::steady_clock::time_point log_window[kLogKinds];
+  int logged_in_window[kLogKinds] = {};
 
   Impl(const std::string& n, const ServerLimits& l) : name(n), limits(l) {
     subscriber_count.reset(new std::atomic<int>[limits.max_channels + 1]);
     for (size_t i = 0; i <= limits.max_channels; ++i) subscriber_count[i] = 0;
   }
 
-  void log(const std::string& line) {
+  void log(LogKind kind, const std::string& line) {
     const auto now = std::chrono::steady_clock::now();
-    if (now - log_window > std::chrono::seconds(1)) {
-      log_window = now;
-      logged_in_window = 0;
+    if (now - log_window[kind] > std::chrono::seconds(1)) {
+      log_window[kind] = now;
+      logged_in_window[kind] = 0;
     }
-    if (++logged_in_window <= 5) std::cerr << "locview: " << line << std::endl;
+    if (++logged_in_window[kind] <= 5) std::cerr << "locview: " << line << std::endl;
   }
 
   void send_text(Handle h, const Json& message) {
@@ -87,7 +88,7 @@ struct FoxgloveServer::Impl {
   void status(Handle h, StatusLevel level, const std::string& message) {
     if (level == kError) {
       ++errors;
-      log("client error: " + message);
+      log(kClientError, "client error: " + message);
     }
     send_text(h, {{"op", "status"}, {"level", level}, {"message", message}});
   }
@@ -121,7 +122,7 @@ struct FoxgloveServer::Impl {
       ++refused;
       con->set_status(websocketpp::http::status_code::service_unavailable);
       con->set_body("locview: " + std::to_string(clients.size()) + " clients are connected, the most it serves (--max-clients)\n");
-      log("refused a client: " + std::to_string(clients.size()) + " connected (--max-clients " +
+      log(kRefusal, "refused a client: " + std::to_string(clients.size()) + " connected (--max-clients " +
           std::to_string(limits.max_clients) + ")");
       return false;
     }
