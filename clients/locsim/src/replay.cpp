@@ -432,7 +432,7 @@ int run_replay(const ReplayOptions& options) {
   for (const auto& [robot, report] : target->robots) {
     const auto& mine = replayed_poses.count(robot) ? replayed_poses.at(robot) : std::map<int64_t, Eigen::Isometry3d>{};
     const auto& theirs = recorded.count(robot) ? recorded.at(robot) : std::map<int64_t, Eigen::Isometry3d>{};
-    size_t matched = 0;
+    size_t matched = 0, identical = 0;  // identical: within 1e-9 m and 1e-9 rad
     double max_position = 0.0, sum_position = 0.0, max_yaw = 0.0;
     for (const auto& [stamp, pose] : mine) {
       const auto r = theirs.find(stamp);
@@ -443,11 +443,12 @@ int run_replay(const ReplayOptions& options) {
       max_position = std::max(max_position, d);
       sum_position += d;
       max_yaw = std::max(max_yaw, dyaw);
+      if (d <= 1e-9 && dyaw <= 1e-9) ++identical;
     }
     if (mine.empty()) every_robot_posed = false;
     robots.push_back({{"robot", robot}, {"plugin", report.plugin}, {"fed", report.fed}, {"rejected", report.rejected},
                       {"no_session", report.no_session}, {"last_error", report.last_error},
-                      {"poses", mine.size()}, {"recorded_poses", theirs.size()}, {"matched", matched},
+                      {"poses", mine.size()}, {"recorded_poses", theirs.size()}, {"matched", matched}, {"identical", identical},
                       {"max_position_diff_m", max_position},
                       {"mean_position_diff_m", matched ? sum_position / static_cast<double>(matched) : 0.0},
                       {"max_yaw_diff_rad", max_yaw}});
@@ -477,7 +478,7 @@ int run_replay(const ReplayOptions& options) {
         << "\n";
     for (const auto& r : robots) {
       log << "  " << r["robot"].get<std::string>() << " (" << r["plugin"].get<std::string>() << "): " << r["poses"]
-          << " poses, " << r["matched"] << " at recorded stamps, max difference " << r["max_position_diff_m"] << " m / "
+          << " poses, " << r["matched"] << " at recorded stamps (" << r["identical"] << " identical), max difference " << r["max_position_diff_m"] << " m / "
           << r["max_yaw_diff_rad"] << " rad; rejected " << r["rejected"]
           << (r["last_error"].get<std::string>().empty() ? "" : " (last: " + r["last_error"].get<std::string>() + ")")
           << "\n";
