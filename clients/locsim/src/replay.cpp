@@ -367,7 +367,7 @@ int run_replay(const ReplayOptions& options) {
 
   std::map<uint16_t, ChannelPlan> plans;
   PoseTrack recorded;
-  uint64_t messages = 0, replayed = 0, undecodable = 0, first_log = 0, last_log = 0;
+  uint64_t messages = 0, replayed = 0, undecodable = 0, first_log = 0, last_log = 0, first_input = 0, last_input = 0;
   std::string last_undecodable, format_error;
   bool stopped = false;
   mcap::ReadSummary summary;
@@ -415,7 +415,8 @@ int run_replay(const ReplayOptions& options) {
         return;
       }
       pacer.wait(m.log_time);
-      ++replayed;
+      if (replayed++ == 0) first_input = m.log_time;
+      last_input = m.log_time;
       if (!target->feed(*plan.topic, plan.robot_id, sample.get())) stopped = true;
     });
   } catch (const mcap::FormatError& e) {
@@ -423,7 +424,8 @@ int run_replay(const ReplayOptions& options) {
   }
   target->finish();
   const double wall_s = std::chrono::duration<double>(Clock::now() - wall_start).count();
-  const double span_s = static_cast<double>(last_log - first_log) * 1e-9;
+  const double span_s = static_cast<double>(last_log - first_log) * 1e-9;        // the whole recording
+  const double input_s = static_cast<double>(last_input - first_input) * 1e-9;  // what was replayed
 
   // Stamp by stamp: the poses this replay produced against the poses recorded.
   const PoseTrack replayed_poses = target->poses();
@@ -467,14 +469,15 @@ int run_replay(const ReplayOptions& options) {
               {"recording_complete", summary.complete},
               {"incomplete_reason", format_error.empty() ? summary.incomplete_reason : format_error},
               {"recorded_span_s", span_s},
+              {"replayed_span_s", input_s},
               {"wall_s", wall_s},
-              {"speed_x_real_time", wall_s > 0 ? span_s / wall_s : 0.0},
+              {"speed_x_real_time", wall_s > 0 ? input_s / wall_s : 0.0},
               {"robots", robots}};
   if (options.json) {
     std::cout << out.dump() << "\n";
   } else {
-    log << "replayed " << replayed << " of " << messages << " messages (" << span_s << " s recorded) in " << wall_s
-        << " s (" << (wall_s > 0 ? span_s / wall_s : 0.0) << "x real time), " << (options.offline ? "offline" : "into locd")
+    log << "replayed " << replayed << " of " << messages << " messages (" << input_s << " s of the " << span_s
+        << " s recorded) in " << wall_s << " s (" << (wall_s > 0 ? input_s / wall_s : 0.0) << "x real time), " << (options.offline ? "offline" : "into locd")
         << "\n";
     for (const auto& r : robots) {
       log << "  " << r["robot"].get<std::string>() << " (" << r["plugin"].get<std::string>() << "): " << r["poses"]
