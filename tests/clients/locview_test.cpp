@@ -8,9 +8,12 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <regex>
 #include <thread>
+
+#include <unistd.h>
 
 #include "child_process.hpp"
 #include "foxglove.hpp"
@@ -90,6 +93,11 @@ TEST(Locview, FoxgloveClientDecodesThePoseOfARobotLocdLocalizes) {
   EXPECT_EQ(schema_of["/corridor_bot/landmark_map"], "foxglove.SceneUpdate");
   EXPECT_EQ(schema_of["/corridor_bot/pose_covariance"], "foxglove.SceneUpdate");
   EXPECT_EQ(schema_of["/corridor_bot/status"], "locd.SessionStatus");
+  // Every message of a Foxglove type is valid under Foxglove's own JSON schema.
+  EXPECT_TRUE(summary["invalid"].empty()) << summary["invalid"].dump();
+  for (const char* schema : {"foxglove.PoseInFrame", "foxglove.FrameTransform", "foxglove.PointCloud", "foxglove.SceneUpdate"}) {
+    EXPECT_GT(summary["validated"].value(schema, 0), 0) << schema << " " << summary["validated"].dump();
+  }
 
   // Every pose decoded is where the simulated truth at its stamp says the robot is.
   std::map<std::string, std::pair<double, double>> truth;
@@ -213,4 +221,81 @@ TEST(FoxgloveConversion, GridKeepsRowMajorCellsFromTheOrigin) {
   EXPECT_EQ(j["data"], locd::view::base64(cells, sizeof cells));
   EXPECT_NO_THROW(nlohmann::json::parse(locd::view::json_schema("foxglove.Grid")));
   EXPECT_EQ(nlohmann::json::parse(locd::view::json_schema("foxglove.Grid"))["properties"]["data"]["contentEncoding"], "base64");
+}
+
+TEST(FoxgloveConversion, EveryKindOfMessageIsValidUnderFoxglovesOwnSchema) {
+  using namespace locd::view;
+  locd_msg_PoseEstimate pose{};
+  locd::dds::copy_string(pose.robot_id, "r1");
+  pose.pose.orientation.w = 1.0;
+  pose.covariance[0] = pose.covariance[7] = 0.04;
+  locd_msg_Particle particle_buffer[2] = {{1, 2, 0.5, 0.5}, {1.1, 2, 0.4, 0.5}};
+  locd_msg_Diagnostics diagnostics{};
+  locd::dds::copy_string(diagnostics.robot_id, "r1");
+  diagnostics.particles._buffer = particle_buffer;
+  diagnostics.particles._length = 2;
+  float ranges[2] = {1.0f, 2.0f}, intensities[2] = {10.0f, 20.0f};
+  locd_msg_LaserScan scan{};
+  locd::dds::copy_string(scan.robot_id, "r1");
+  scan.range_max = 10.0f;
+  scan.angle_increment = 0.1f;
+  scan.sensor_pose.orientation.w = 1.0;
+  scan.ranges._buffer = ranges;
+  scan.ranges._length = 2;
+  scan.intensities._buffer = intensities;
+  scan.intensities._length = 2;
+  float xyz[6] = {1, 2, 3, 4, 5, 6};
+  locd_msg_PointCloud cloud{};
+  locd::dds::copy_string(cloud.robot_id, "r1");
+  cloud.sensor_pose.orientation.w = 1.0;
+  cloud.xyz._buffer = xyz;
+  cloud.xyz._length = 6;
+  locd_msg_PointCloudMap map{};
+  locd::dds::copy_string(map.robot_id, "r1");
+  map.xyz._buffer = xyz;
+  map.xyz._length = 6;
+  float cells[4] = {0, 0.5f, 1, NAN};
+  locd_msg_GridMap g{};
+  locd::dds::copy_string(g.robot_id, "r1");
+  locd::dds::copy_string(g.layer, "belief");
+  g.resolution = 0.1;
+  g.width = g.height = 2;
+  g.cells._buffer = cells;
+  g.cells._length = 4;
+  locd_msg_LandmarkFeature features[2] = {};
+  locd::dds::copy_string(features[0].kind, "line");
+  features[0].b = {1, 0, 0};
+  locd::dds::copy_string(features[1].kind, "lamp");
+  locd::dds::copy_string(features[1].id, "L7");
+  locd_msg_LandmarkMap landmarks{};
+  locd::dds::copy_string(landmarks.robot_id, "r1");
+  landmarks.features._buffer = features;
+  landmarks.features._length = 2;
+  locd_msg_ExplorationGoal goal{};
+  goal.pose.orientation.w = 1.0;
+  const nlohmann::json messages = nlohmann::json::array({
+      {{"schemaName", "foxglove.PoseInFrame"}, {"message", pose_in_frame(pose.header, pose.pose)}},
+      {{"schemaName", "foxglove.FrameTransform"}, {"message", base_transform(pose)}},
+      {{"schemaName", "foxglove.SceneUpdate"}, {"message", covariance_ellipse(pose)}},
+      {{"schemaName", "foxglove.PosesInFrame"}, {"message", particles(diagnostics)}},
+      {{"schemaName", "foxglove.PointCloud"}, {"message", laser_scan(scan)}},
+      {{"schemaName", "foxglove.PointCloud"}, {"message", sensor_cloud(cloud)}},
+      {{"schemaName", "foxglove.PointCloud"}, {"message", locd::view::map_cloud(map)}},
+      {{"schemaName", "foxglove.Grid"}, {"message", grid(g)}},
+      {{"schemaName", "foxglove.SceneUpdate"}, {"message", landmark_scene(landmarks)}},
+      {{"schemaName", "foxglove.PoseInFrame"}, {"message", exploration_goal(goal)}},
+  });
+  const fs::path file = fs::temp_directory_path() / ("foxglove_messages_" + std::to_string(::getpid()) + ".json");
+  std::ofstream(file) << messages.dump();
+  int exit_code = 0;
+  const auto out = locd::test::json_lines(locd::test::run_node("validate_foxglove.mjs", {file.string()}, exit_code));
+  fs::remove(file);
+  ASSERT_EQ(exit_code, 0);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_TRUE(out[0]["invalid"].empty()) << out[0].dump();
+  int validated = 0;
+  for (const auto& [name, count] : out[0]["validated"].items()) validated += count.get<int>();
+  EXPECT_EQ(validated, 10) << out[0].dump();
+  // And the schemas locview advertises name the same required fields as Foxglove's.
+  EXPECT_NE(json_schema("foxglove.SceneUpdate").find("\"models\""), std::string::npos);
 }

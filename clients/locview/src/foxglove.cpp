@@ -57,7 +57,10 @@ std::map<std::string, std::string> make_schemas() {
   const Json entity = object({{"timestamp", time()}, {"frame_id", type("string")}, {"id", type("string")},
                               {"lifetime", time()}, {"frame_locked", type("boolean")},
                               {"metadata", array(object({{"key", type("string")}, {"value", type("string")}}))},
-                              {"spheres", array(sphere)}, {"lines", array(line)}, {"texts", array(text)}});
+                              {"arrows", array(type("object"))}, {"cubes", array(type("object"))},
+                              {"spheres", array(sphere)}, {"cylinders", array(type("object"))},
+                              {"lines", array(line)}, {"triangles", array(type("object"))},
+                              {"texts", array(text)}, {"models", array(type("object"))}});
   s["foxglove.SceneUpdate"] = object(
       {{"deletions", array(object({{"timestamp", time()}, {"type", type("integer")}, {"id", type("string")}}))},
        {"entities", array(entity)}});
@@ -103,6 +106,13 @@ template <size_t N>
 std::string text(const char (&s)[N]) { return text(s, N); }
 
 constexpr int kFloat32 = 7;  // foxglove.NumericType
+
+// A SceneEntity lists every kind of primitive, empty where it has none.
+void no_other_primitives(Json& entity) {
+  for (const char* kind : {"arrows", "cubes", "spheres", "cylinders", "lines", "triangles", "texts", "models"}) {
+    if (!entity.contains(kind)) entity[kind] = Json::array();
+  }
+}
 
 Json xyz_cloud(const char* frame, const Json& origin, const float* xyz, size_t points, const float* intensity,
                size_t intensities, const locd_msg_MessageHeader& header) {
@@ -175,10 +185,11 @@ Json covariance_ellipse(const locd_msg_PoseEstimate& pose) {
   const Json sphere = {{"pose", yaw_pose(pose.pose.position.x, pose.pose.position.y, pose.pose.position.z, angle)},
                        {"size", {{"x", 4 * sigma(1)}, {"y", 4 * sigma(0)}, {"z", 0.01}}},
                        {"color", rgba(0.2, 0.6, 1.0, 0.35)}};
-  const Json entity = {{"timestamp", stamp(pose.header.stamp_ns)}, {"frame_id", "map"}, {"id", robot + "/covariance"},
+  Json entity = {{"timestamp", stamp(pose.header.stamp_ns)}, {"frame_id", "map"}, {"id", robot + "/covariance"},
                        {"lifetime", {{"sec", 0}, {"nsec", 0}}}, {"frame_locked", false},
                        {"metadata", Json::array({{{"key", "robot_id"}, {"value", robot}}})},
-                       {"spheres", Json::array({sphere})}, {"lines", Json::array()}, {"texts", Json::array()}};
+                       {"spheres", Json::array({sphere})}};
+  no_other_primitives(entity);
   return {{"deletions", Json::array()}, {"entities", Json::array({entity})}};
 }
 
@@ -254,10 +265,11 @@ Json landmark_scene(const locd_msg_LandmarkMap& map) {
                      {"indices", Json::array()}});  // 2 = LINE_LIST
   }
   const std::string robot = text(map.robot_id);
-  const Json entity = {{"timestamp", stamp(map.header.stamp_ns)}, {"frame_id", "map"}, {"id", robot + "/landmark_map"},
+  Json entity = {{"timestamp", stamp(map.header.stamp_ns)}, {"frame_id", "map"}, {"id", robot + "/landmark_map"},
                        {"lifetime", {{"sec", 0}, {"nsec", 0}}}, {"frame_locked", false},
                        {"metadata", Json::array({{{"key", "robot_id"}, {"value", robot}}})},
                        {"spheres", spheres}, {"lines", lines}, {"texts", texts}};
+  no_other_primitives(entity);
   return {{"deletions", Json::array()}, {"entities", Json::array({entity})}};
 }
 
