@@ -261,5 +261,11 @@ TEST(McapRecordReplay, ReplayRefusesForeignCorruptAndUnknownRecordingsByName) {
   EXPECT_NE(out.find("skipping channel 'r1/locd/scan': its schema text differs from this build's idl/locd.idl"),
             std::string::npos) << out;
   EXPECT_NE(out.find("holds no robot input"), std::string::npos) << out;
+
+  // A recorder asked for a robot id that cannot be a partition: refused before any file exists.
+  ChildProcess bad(binary("locctl"), {"record", (dir / "bad.mcap").string(), "robot*"}, (dir / "locctl.log").string());
+  EXPECT_EQ(bad.wait(30s), 1);
+  EXPECT_NE(bad.output().find("robot_id 'robot*'"), std::string::npos) << bad.output();
+  EXPECT_FALSE(fs::exists(dir / "bad.mcap"));
   fs::remove_all(dir);
 }

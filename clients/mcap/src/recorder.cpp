@@ -52,10 +52,7 @@ struct Recorder::Impl {
   Impl(const std::string& path, const RecorderOptions& o)
       : options(o), writer(path, o.writer), participant(o.domain_id) {
     dds::Partitions robots;
-    for (const std::string& r : o.robots) {
-      check_robot_id(r);
-      robots.push_back(topics::robot_partition(r));
-    }
+    for (const std::string& r : o.robots) robots.push_back(topics::robot_partition(r));
     if (robots.empty()) robots.push_back(topics::kAllRobotsPartition);
     for (const TopicInfo& t : locd_topics()) add_source(t, t.per_robot ? robots : dds::Partitions{});
     thread = std::thread([this] { write_loop(); });
@@ -176,8 +173,16 @@ struct Recorder::Impl {
   }
 };
 
+namespace {
+// Refuses a bad robot id before the file is created.
+const RecorderOptions& checked(const RecorderOptions& options) {
+  for (const std::string& r : options.robots) check_robot_id(r);
+  return options;
+}
+}  // namespace
+
 Recorder::Recorder(const std::string& path, const RecorderOptions& options)
-    : impl_(std::make_unique<Impl>(path, options)) {}
+    : impl_(std::make_unique<Impl>(path, checked(options))) {}
 
 Recorder::~Recorder() {
   try {
