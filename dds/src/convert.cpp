@@ -207,17 +207,21 @@ ExplorationGoal from_wire(const locd_msg_ExplorationGoal& m) {
 
 // ------------------------------------------------------------------------------- writers
 
-void write(const Writer<locd_msg_Odometry>& w, const std::string& robot_id, const Odometry& m) {
+void to_wire(const std::string& robot_id, const Odometry& m, const WireUse<locd_msg_Odometry>& use) {
   auto s = zeroed<locd_msg_Odometry>();
   copy_string(s.robot_id, robot_id);
   to_wire(m.header, s.header);
   to_wire(m.pose, s.pose);
   vec(m.linear_velocity, s.linear_velocity);
   vec(m.angular_velocity, s.angular_velocity);
-  w.write(s);
+  use(s);
 }
 
-void write(const Writer<locd_msg_Imu>& w, const std::string& robot_id, const Imu& m) {
+void write(const Writer<locd_msg_Odometry>& w, const std::string& robot_id, const Odometry& m) {
+  to_wire(robot_id, m, [&](const locd_msg_Odometry& s) { w.write(s); });
+}
+
+void to_wire(const std::string& robot_id, const Imu& m, const WireUse<locd_msg_Imu>& use) {
   auto s = zeroed<locd_msg_Imu>();
   copy_string(s.robot_id, robot_id);
   to_wire(m.header, s.header);
@@ -226,10 +230,14 @@ void write(const Writer<locd_msg_Imu>& w, const std::string& robot_id, const Imu
   vec(m.linear_acceleration, s.linear_acceleration);
   s.orientation_stddev = m.orientation_stddev;
   s.acceleration_stddev = m.acceleration_stddev;
-  w.write(s);
+  use(s);
 }
 
-void write(const Writer<locd_msg_LaserScan>& w, const std::string& robot_id, const LaserScan& m) {
+void write(const Writer<locd_msg_Imu>& w, const std::string& robot_id, const Imu& m) {
+  to_wire(robot_id, m, [&](const locd_msg_Imu& s) { w.write(s); });
+}
+
+void to_wire(const std::string& robot_id, const LaserScan& m, const WireUse<locd_msg_LaserScan>& use) {
   auto s = zeroed<locd_msg_LaserScan>();
   copy_string(s.robot_id, robot_id);
   to_wire(m.header, s.header);
@@ -240,10 +248,14 @@ void write(const Writer<locd_msg_LaserScan>& w, const std::string& robot_id, con
   s.range_max = m.range_max;
   borrow(s.ranges, m.ranges.data(), m.ranges.size());
   borrow(s.intensities, m.intensities.data(), m.intensities.size());
-  w.write(s);
+  use(s);
 }
 
-void write(const Writer<locd_msg_PointCloud>& w, const std::string& robot_id, const PointCloud& m) {
+void write(const Writer<locd_msg_LaserScan>& w, const std::string& robot_id, const LaserScan& m) {
+  to_wire(robot_id, m, [&](const locd_msg_LaserScan& s) { w.write(s); });
+}
+
+void to_wire(const std::string& robot_id, const PointCloud& m, const WireUse<locd_msg_PointCloud>& use) {
   static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "Vector3f must be three packed floats");
   auto s = zeroed<locd_msg_PointCloud>();
   copy_string(s.robot_id, robot_id);
@@ -251,10 +263,14 @@ void write(const Writer<locd_msg_PointCloud>& w, const std::string& robot_id, co
   to_wire(m.sensor_pose, s.sensor_pose);
   borrow(s.xyz, m.points.data(), 3 * m.points.size());
   borrow(s.intensity, m.intensity.data(), m.intensity.size());
-  w.write(s);
+  use(s);
 }
 
-void write(const Writer<locd_msg_Image>& w, const std::string& robot_id, const Image& m) {
+void write(const Writer<locd_msg_PointCloud>& w, const std::string& robot_id, const PointCloud& m) {
+  to_wire(robot_id, m, [&](const locd_msg_PointCloud& s) { w.write(s); });
+}
+
+void to_wire(const std::string& robot_id, const Image& m, const WireUse<locd_msg_Image>& use) {
   auto s = zeroed<locd_msg_Image>();
   copy_string(s.robot_id, robot_id);
   to_wire(m.header, s.header);
@@ -263,10 +279,14 @@ void write(const Writer<locd_msg_Image>& w, const std::string& robot_id, const I
   copy_string(s.encoding, m.channels == 3 ? "bgr8" : "mono8");
   s.step = static_cast<uint32_t>(m.width * m.channels);
   borrow(s.data, m.data.data(), m.data.size());
-  w.write(s);
+  use(s);
 }
 
-void write(const Writer<locd_msg_LandmarkDetections>& w, const std::string& robot_id, const LandmarkDetections& m) {
+void write(const Writer<locd_msg_Image>& w, const std::string& robot_id, const Image& m) {
+  to_wire(robot_id, m, [&](const locd_msg_Image& s) { w.write(s); });
+}
+
+void to_wire(const std::string& robot_id, const LandmarkDetections& m, const WireUse<locd_msg_LandmarkDetections>& use) {
   auto s = zeroed<locd_msg_LandmarkDetections>();
   copy_string(s.robot_id, robot_id);
   to_wire(m.header, s.header);
@@ -279,11 +299,15 @@ void write(const Writer<locd_msg_LandmarkDetections>& w, const std::string& robo
     for (int k = 0; k < 9; ++k) items[i].covariance[k] = d.covariance(k / 3, k % 3);
   }
   borrow(s.detections, items.data(), items.size());
-  w.write(s);
+  use(s);
 }
 
-void write(const Writer<locd_msg_PoseEstimate>& w, const std::string& robot_id, const PoseEstimate& m,
-           const std::string& plugin, double update_ms) {
+void write(const Writer<locd_msg_LandmarkDetections>& w, const std::string& robot_id, const LandmarkDetections& m) {
+  to_wire(robot_id, m, [&](const locd_msg_LandmarkDetections& s) { w.write(s); });
+}
+
+void to_wire(const std::string& robot_id, const PoseEstimate& m,
+           const std::string& plugin, double update_ms, const WireUse<locd_msg_PoseEstimate>& use) {
   auto s = zeroed<locd_msg_PoseEstimate>();
   copy_string(s.robot_id, robot_id);
   to_wire(m.header, s.header);
@@ -292,19 +316,28 @@ void write(const Writer<locd_msg_PoseEstimate>& w, const std::string& robot_id, 
   vec(m.linear_velocity, s.linear_velocity);
   copy_string(s.plugin, plugin);
   s.update_ms = update_ms;
-  w.write(s);
+  use(s);
 }
 
-void write(const Writer<locd_msg_InitialPose>& w, const std::string& robot_id, const PoseEstimate& m) {
+void write(const Writer<locd_msg_PoseEstimate>& w, const std::string& robot_id, const PoseEstimate& m,
+           const std::string& plugin, double update_ms) {
+  to_wire(robot_id, m, plugin, update_ms, [&](const locd_msg_PoseEstimate& s) { w.write(s); });
+}
+
+void to_wire(const std::string& robot_id, const PoseEstimate& m, const WireUse<locd_msg_InitialPose>& use) {
   auto s = zeroed<locd_msg_InitialPose>();
   copy_string(s.robot_id, robot_id);
   to_wire(m.header, s.header);
   to_wire(m.pose, s.pose);
   for (int k = 0; k < 36; ++k) s.covariance[k] = m.covariance(k / 6, k % 6);
-  w.write(s);
+  use(s);
 }
 
-void write(const Writer<locd_msg_GridMap>& w, const std::string& robot_id, const Header& h, const GridLayer& g) {
+void write(const Writer<locd_msg_InitialPose>& w, const std::string& robot_id, const PoseEstimate& m) {
+  to_wire(robot_id, m, [&](const locd_msg_InitialPose& s) { w.write(s); });
+}
+
+void to_wire(const std::string& robot_id, const Header& h, const GridLayer& g, const WireUse<locd_msg_GridMap>& use) {
   auto s = zeroed<locd_msg_GridMap>();
   copy_string(s.robot_id, robot_id);
   copy_string(s.layer, g.layer);
@@ -315,20 +348,28 @@ void write(const Writer<locd_msg_GridMap>& w, const std::string& robot_id, const
   s.width = static_cast<uint32_t>(g.width);
   s.height = static_cast<uint32_t>(g.height);
   borrow(s.cells, g.cells.data(), g.cells.size());
-  w.write(s);
+  use(s);
 }
 
-void write(const Writer<locd_msg_PointCloudMap>& w, const std::string& robot_id, const Header& h, const PointCloud& m) {
+void write(const Writer<locd_msg_GridMap>& w, const std::string& robot_id, const Header& h, const GridLayer& g) {
+  to_wire(robot_id, h, g, [&](const locd_msg_GridMap& s) { w.write(s); });
+}
+
+void to_wire(const std::string& robot_id, const Header& h, const PointCloud& m, const WireUse<locd_msg_PointCloudMap>& use) {
   auto s = zeroed<locd_msg_PointCloudMap>();
   copy_string(s.robot_id, robot_id);
   to_wire(h, s.header);
   borrow(s.xyz, m.points.data(), 3 * m.points.size());
   borrow(s.intensity, m.intensity.data(), m.intensity.size());
-  w.write(s);
+  use(s);
 }
 
-void write(const Writer<locd_msg_LandmarkMap>& w, const std::string& robot_id, const Header& h,
-           const std::vector<MapFeature>& features) {
+void write(const Writer<locd_msg_PointCloudMap>& w, const std::string& robot_id, const Header& h, const PointCloud& m) {
+  to_wire(robot_id, h, m, [&](const locd_msg_PointCloudMap& s) { w.write(s); });
+}
+
+void to_wire(const std::string& robot_id, const Header& h,
+           const std::vector<MapFeature>& features, const WireUse<locd_msg_LandmarkMap>& use) {
   auto s = zeroed<locd_msg_LandmarkMap>();
   copy_string(s.robot_id, robot_id);
   to_wire(h, s.header);
@@ -341,11 +382,16 @@ void write(const Writer<locd_msg_LandmarkMap>& w, const std::string& robot_id, c
     vec(features[i].b, items[i].b);
   }
   borrow(s.features, items.data(), items.size());
-  w.write(s);
+  use(s);
 }
 
-void write(const Writer<locd_msg_Diagnostics>& w, const std::string& robot_id, const Header& h,
-           const std::string& plugin, const Diagnostics& d) {
+void write(const Writer<locd_msg_LandmarkMap>& w, const std::string& robot_id, const Header& h,
+           const std::vector<MapFeature>& features) {
+  to_wire(robot_id, h, features, [&](const locd_msg_LandmarkMap& s) { w.write(s); });
+}
+
+void to_wire(const std::string& robot_id, const Header& h,
+           const std::string& plugin, const Diagnostics& d, const WireUse<locd_msg_Diagnostics>& use) {
   auto s = zeroed<locd_msg_Diagnostics>();
   copy_string(s.robot_id, robot_id);
   to_wire(h, s.header);
@@ -371,11 +417,16 @@ void write(const Writer<locd_msg_Diagnostics>& w, const std::string& robot_id, c
   borrow(s.values, values.data(), values.size());
   borrow(s.particles, particles.data(), particles.size());
   borrow(s.associations, associations.data(), associations.size());
-  w.write(s);
+  use(s);
 }
 
-void write(const Writer<locd_msg_ExplorationGoal>& w, const std::string& robot_id, const ExplorationGoal& g,
-           const std::string& plugin) {
+void write(const Writer<locd_msg_Diagnostics>& w, const std::string& robot_id, const Header& h,
+           const std::string& plugin, const Diagnostics& d) {
+  to_wire(robot_id, h, plugin, d, [&](const locd_msg_Diagnostics& s) { w.write(s); });
+}
+
+void to_wire(const std::string& robot_id, const ExplorationGoal& g,
+           const std::string& plugin, const WireUse<locd_msg_ExplorationGoal>& use) {
   auto s = zeroed<locd_msg_ExplorationGoal>();
   copy_string(s.robot_id, robot_id);
   to_wire(g.header, s.header);
@@ -383,7 +434,12 @@ void write(const Writer<locd_msg_ExplorationGoal>& w, const std::string& robot_i
   s.score = g.score;
   s.done = g.done;
   copy_string(s.plugin, plugin);
-  w.write(s);
+  use(s);
+}
+
+void write(const Writer<locd_msg_ExplorationGoal>& w, const std::string& robot_id, const ExplorationGoal& g,
+           const std::string& plugin) {
+  to_wire(robot_id, g, plugin, [&](const locd_msg_ExplorationGoal& s) { w.write(s); });
 }
 
 }  // namespace locd::dds

@@ -21,6 +21,9 @@ Commands:
   stop ROBOT                   end ROBOT's session
   initial-pose ROBOT X Y YAW   give ROBOT's localizer its pose (metres, YAW in radians)
                                [--std-xy M (default 0.5)] [--std-yaw RAD (default 0.2)]
+  record OUT.mcap [ROBOT...]   record every locd topic of those robots (default: every robot),
+                               sensors included, into MCAP until Ctrl-C or --duration S
+                               [--compression zstd|lz4|none (default zstd)]
 
 Options:
   --domain N     DDS domain id 0..232 (default: env LOCD_DOMAIN, else 0)
@@ -43,7 +46,7 @@ constexpr size_t kMaxRobotIdLength = 64;  // locd.idl ROBOT_ID_MAX
 const std::map<std::string, std::pair<size_t, size_t>>& command_arity() {
   static const std::map<std::string, std::pair<size_t, size_t>> arity = {
       {"use", {2, 2}},   {"status", {0, 1}}, {"watch", {1, 1}},        {"plugins", {0, 0}},
-      {"stop", {1, 1}},  {"help", {0, 0}},   {"initial-pose", {4, 4}},
+      {"stop", {1, 1}},  {"help", {0, 0}},   {"initial-pose", {4, 4}}, {"record", {1, 1001}},
   };
   return arity;
 }
@@ -54,6 +57,7 @@ const char* arguments_of(const std::string& command) {
   if (command == "watch") return "ROBOT";
   if (command == "stop") return "ROBOT";
   if (command == "initial-pose") return "ROBOT X Y YAW";
+  if (command == "record") return "OUT.mcap [ROBOT...] (at most 1000 robots)";
   return "no arguments";
 }
 
@@ -89,7 +93,7 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
   app.set_help_flag();
   app.allow_extras();
   std::vector<std::string> words;
-  std::string domain, timeout, count, std_xy, std_yaw;
+  std::string domain, timeout, count, std_xy, std_yaw, duration, compression;
   app.add_option("words", words);
   app.add_flag("--help,-h", cl.help);
   app.add_flag("--json", cl.json);
@@ -98,9 +102,12 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
   app.add_option("--count", count);
   app.add_option("--std-xy", std_xy);
   app.add_option("--std-yaw", std_yaw);
+  app.add_option("--duration", duration);
+  app.add_option("--compression", compression);
   for (size_t i = 0; i < args.size(); ++i) {
     const bool takes_value = args[i] == "--domain" || args[i] == "--timeout" || args[i] == "--count" ||
-                             args[i] == "--std-xy" || args[i] == "--std-yaw";
+                             args[i] == "--std-xy" || args[i] == "--std-yaw" ||
+                             args[i] == "--duration" || args[i] == "--compression";
     if (takes_value && i + 1 == args.size()) throw UsageError("option " + args[i] + " needs a value");
   }
   std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them last first
@@ -128,19 +135,30 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
     cl.std_yaw = parse_number("--std-yaw", std_yaw);
     if (!(cl.std_yaw > 0.0)) throw UsageError("--std-yaw = " + std_yaw + " must be > 0 (radians)");
   }
+  if (!duration.empty()) {
+    const double d = parse_number("--duration", duration);
+    if (!(d > 0.0 && d <= 31.0 * 86400.0)) throw UsageError("--duration = " + duration + " is out of range; allowed: (0, 2678400] seconds");
+    cl.duration_s = d;
+  }
+  if (!compression.empty()) {
+    if (compression != "zstd" && compression != "lz4" && compression != "none") {
+      throw UsageError("--compression = '" + compression + "'; allowed: zstd, lz4, none");
+    }
+    cl.compression = compression;
+  }
   if (words.empty()) {
     if (cl.help) {
       cl.command = "help";
       return cl;
     }
-    throw UsageError("no command given; commands: use, status, watch, plugins, stop, initial-pose (see locctl --help)");
+    throw UsageError("no command given; commands: use, status, watch, plugins, stop, initial-pose, record (see locctl --help)");
   }
   cl.command = words.front();
   cl.arguments.assign(words.begin() + 1, words.end());
   const auto arity = command_arity().find(cl.command);
   if (arity == command_arity().end()) {
     throw UsageError("unknown command '" + cl.command +
-                     "'; commands: use, status, watch, plugins, stop, initial-pose (see locctl --help)");
+                     "'; commands: use, status, watch, plugins, stop, initial-pose, record (see locctl --help)");
   }
   if (cl.help) return cl;
   const auto [min_args, max_args] = arity->second;
@@ -149,12 +167,15 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
                      std::to_string(cl.arguments.size()) + " argument(s); see locctl --help");
   }
   if (cl.count && cl.command != "watch") throw UsageError("--count applies to 'watch' only");
+  if ((!duration.empty() || !compression.empty()) && cl.command != "record") {
+    throw UsageError("--duration and --compression apply to 'record' only");
+  }
   if (cl.command == "initial-pose") {
     parse_number("X", cl.arguments[1]);
     parse_number("Y", cl.arguments[2]);
     parse_number("YAW", cl.arguments[3]);
   }
-  if (!cl.arguments.empty() && cl.command != "plugins") {
+  if (!cl.arguments.empty() && cl.command != "plugins" && cl.command != "record") {
     const std::string& robot = cl.arguments[0];
     if (robot.empty()) throw UsageError("ROBOT must not be empty");
     if (robot.size() > kMaxRobotIdLength) {

@@ -18,6 +18,7 @@
 
 #include "command_line.hpp"
 #include "json.hpp"
+#include "record.hpp"
 #include "locd/client/client.hpp"
 #include "locd/sdk/errors.hpp"
 #include "locd/sdk/plugin_config.hpp"
@@ -368,6 +369,7 @@ int run(const CommandLine& cl) {
   if (cl.command == "plugins") return command_plugins(cl);
   if (cl.command == "stop") return command_stop(cl);
   if (cl.command == "initial-pose") return command_initial_pose(cl);
+  if (cl.command == "record") return command_record(cl);
   throw UsageError("unknown command '" + cl.command + "'");
 }
 

@@ -12,18 +12,22 @@
 #include <string>
 #include <vector>
 
+#include "replay.hpp"
 #include "scenario_kinds.hpp"
 
 namespace fs = std::filesystem;
 using locd::sim::Command;
 using locd::sim::UsageError;
+using locd::sim::ReplayOptions;
 
 namespace {
 
 const char* kUsage =
     "usage:\n"
     "  locsim run SCENARIO.yaml [--json] [--plot FILE.png] [--plugin-dir DIR] [--seed N] [--duration S]\n"
-    "      offline: the scenario straight through the plugin, no DDS\n"
+    "                  [--mcap OUT.mcap]\n"
+    "      offline: the scenario straight through the plugin, no DDS; --mcap records the run (sensors,\n"
+    "      poses, ground truth) for Foxglove and locsim replay\n"
     "  locsim live SCENARIO.yaml [--domain N] [--rate X] [--duration S] [--seed N] [--json] [--plot FILE.png]\n"
     "              [--server-timeout S]\n"
     "      real time against a running locd (DDS through CYCLONEDDS_URI); --rate 2 runs twice as fast;\n"
@@ -32,6 +36,11 @@ const char* kUsage =
     "                   [--plugin-dir DIR] [--seed N] [--duration S]\n"
     "      a road-sign scenario (feature_ekf landmarks), N seeded drives per association strategy\n"
     "      (default: known_id, nearest_neighbor, jcbb, pda) side by side: CEP50/CEP95, wrong associations\n"
+    "  locsim replay IN.mcap [--domain N] [--rate X | --fast] [--robot R]... [--server-timeout S] [--json]\n"
+    "  locsim replay IN.mcap --offline [--plugin-dir DIR] [--map-dir DIR] [--rate X] [--robot R]... [--json]\n"
+    "      a recording (locctl record, locsim run --mcap) fed again: into a running locd (default real time),\n"
+    "      or --offline through the plugin its session request names (default as fast as possible);\n"
+    "      compares the poses with the recorded ones. Maps: --map-dir, default config/maps\n"
     "  locsim --help\n"
     "Plugin directory for run: --plugin-dir, else $LOCD_PLUGIN_DIR, else <locsim's dir>/../plugins.\n";
 
@@ -72,10 +81,49 @@ struct Text {
   std::vector<std::string> plugin_directories;
 };
 
+ReplayOptions parse_replay(const std::vector<std::string>& args) {
+  ReplayOptions o;
+  std::string domain, rate, server_timeout;
+  bool fast = false;
+  std::vector<std::string> plugin_directories, map_directories;
+  CLI::App app{"locsim replay", "locsim replay"};
+  app.set_help_flag();
+  app.add_option("file", o.file, "IN.mcap");
+  app.add_flag("--json", o.json);
+  app.add_flag("--offline", o.offline);
+  app.add_flag("--fast", fast);
+  app.add_option("--domain", domain);
+  app.add_option("--rate", rate);
+  app.add_option("--server-timeout", server_timeout);
+  app.add_option("--robot", o.robots)->expected(1)->take_all();
+  app.add_option("--plugin-dir", plugin_directories)->expected(1)->take_all();
+  app.add_option("--map-dir", map_directories)->expected(1)->take_all();
+  std::vector<std::string> rest(args.rbegin(), args.rend() - 1);
+  try {
+    app.parse(rest);
+  } catch (const CLI::ParseError& e) {
+    throw UsageError(std::string(e.what()) + " (locsim replay)");
+  }
+  if (o.file.empty()) throw UsageError("locsim replay needs an IN.mcap");
+  if (fast && !rate.empty()) throw UsageError("--fast and --rate exclude each other");
+  if (fast) o.rate = 0.0;
+  if (!rate.empty()) o.rate = parse_number("--rate", rate, 0.01, 1000.0);
+  if (!domain.empty()) o.domain_id = static_cast<uint32_t>(parse_unsigned("--domain", domain, 232));
+  if (!server_timeout.empty()) o.server_timeout_s = parse_number("--server-timeout", server_timeout, 0.1, 3600.0);
+  for (const auto& d : plugin_directories) o.plugin_directories.push_back(d);
+  if (o.plugin_directories.empty()) o.plugin_directories.push_back(default_plugin_directory());
+  for (const auto& d : map_directories) o.map_directories.push_back(d);
+  if (o.map_directories.empty()) o.map_directories.push_back("config/maps");
+  if (!o.offline && (!plugin_directories.empty() || !map_directories.empty())) {
+    throw UsageError("--plugin-dir and --map-dir apply to --offline only (a running locd has its own)");
+  }
+  return o;
+}
+
 Command parse(const std::vector<std::string>& args) {
   const std::string mode = args[0];
   if (mode != "run" && mode != "live" && mode != "montecarlo") {
-    throw UsageError("unknown command '" + mode + "'; known: run, live, montecarlo");
+    throw UsageError("unknown command '" + mode + "'; known: run, live, montecarlo, replay");
   }
   Command c;
   c.mode = mode;
@@ -90,6 +138,7 @@ Command parse(const std::vector<std::string>& args) {
   if (mode == "run" || mode == "montecarlo") {
     app.add_option("--plugin-dir", text.plugin_directories)->expected(1)->take_all();
   }
+  if (mode == "run") app.add_option("--mcap", c.mcap_file);
   if (mode == "live") {
     app.add_option("--domain", text.domain);
     app.add_option("--server-timeout", text.server_timeout);
@@ -140,6 +189,7 @@ int main(int argc, char** argv) {
     }
   }
   try {
+    if (args[0] == "replay") return locd::sim::run_replay(parse_replay(args));
     return locd::sim::run_command(parse(args));
   } catch (const UsageError& e) {
     std::cerr << "locsim: " << e.what() << "\n" << kUsage;

@@ -24,9 +24,11 @@ RunResult run_offline(const Scenario& scenario, const OfflineRunOptions& options
 
   Simulation simulation(scenario, result.seed, result.duration_s);
   localizer->set_pose(simulation.initial_pose());
+  if (options.observer) options.observer->started(simulation.initial_pose());
   TrajectoryEvaluator evaluator(scenario.convergence_threshold_m);
   while (auto m = simulation.next()) {
     ++result.measurements;
+    if (options.observer) options.observer->measurement(m->measurement, simulation.truth().at(m->t).pose);
     UpdateResult update;
     const auto begin = std::chrono::steady_clock::now();
     try {
@@ -39,6 +41,7 @@ RunResult run_offline(const Scenario& scenario, const OfflineRunOptions& options
     }
     const double update_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
+    if (options.observer) options.observer->updated(update, update_ms);
     if (!update.estimate) continue;
     const double t = simulation.time_of(update.estimate->header.stamp_ns);
     evaluator.add(t, Pose2::from_isometry(update.estimate->pose), simulation.truth().at(t).pose, update_ms);

@@ -4,6 +4,7 @@
 
 #include "live_emoi_markov.hpp"
 #include "live_exploration.hpp"
+#include "run_recording.hpp"
 #include "locd/sim/offline_runner.hpp"
 #include "locd/sim/report.hpp"
 #include "locd/sim/scenario.hpp"
@@ -42,7 +43,14 @@ int road_signs_montecarlo(const Command& c, int runs) {
 
 int segment_world_run(const Command& c) {
   const Scenario scenario = load_scenario(c.scenario_file);
-  const RunResult result = run_offline(scenario, OfflineRunOptions{c.plugin_directories, c.seed, c.duration_s});
+  std::unique_ptr<McapRunRecording> recording;
+  if (!c.mcap_file.empty()) recording = std::make_unique<McapRunRecording>(c.mcap_file, scenario);
+  const RunResult result =
+      run_offline(scenario, OfflineRunOptions{c.plugin_directories, c.seed, c.duration_s, recording.get()});
+  if (recording) {
+    recording->close();
+    log_stream(c) << "recording: " << c.mcap_file << "\n";
+  }
   report_run(result, scenario.map, c.json, c.plot_file);
   return result.summary.updates > 0 ? 0 : 1;
 }
@@ -95,6 +103,9 @@ const ScenarioKind& kind_of(const std::filesystem::path& scenario_file) {
 
 int run_command(const Command& command) {
   const ScenarioKind& kind = kind_of(command.scenario_file);
+  if (!command.mcap_file.empty() && &kind != &scenario_kinds().back()) {
+    throw UsageError("--mcap records segment-world runs (corridor, ceiling hall); not offered for " + kind.name);
+  }
   const Runner& runner = command.mode == "run" ? kind.run : command.mode == "live" ? kind.live : kind.montecarlo;
   if (!runner) throw UsageError(kind.not_offered);
   return runner(command);

@@ -28,6 +28,7 @@ struct Command {
   std::filesystem::path scenario_file;
   bool json = false;                                  // one JSON object on stdout
   std::string plot_file;                              // PNG, empty = none
+  std::string mcap_file;                              // run: record the run into MCAP, empty = none
   std::optional<uint64_t> seed;                       // overrides the scenario's
   std::optional<double> duration_s;                   // overrides the scenario's
   std::vector<std::filesystem::path> plugin_directories;  // run, montecarlo

@@ -4,6 +4,7 @@
 // topic, the field and what is allowed.
 #pragma once
 
+#include <functional>
 #include <string>
 
 #include "locd/dds/dds.hpp"
@@ -46,5 +47,27 @@ void write(const Writer<locd_msg_Diagnostics>& w, const std::string& robot_id, c
            const std::string& plugin, const Diagnostics& d);
 void write(const Writer<locd_msg_ExplorationGoal>& w, const std::string& robot_id, const ExplorationGoal& g,
            const std::string& plugin = "");
+
+// The wire sample each write() above sends, handed to `use` instead (e.g. to serialize it into a
+// recording). Its sequences borrow the sdk value's buffers: valid during the call only.
+template <typename Wire>
+using WireUse = std::function<void(const Wire&)>;
+void to_wire(const std::string& robot_id, const Odometry& m, const WireUse<locd_msg_Odometry>& use);
+void to_wire(const std::string& robot_id, const Imu& m, const WireUse<locd_msg_Imu>& use);
+void to_wire(const std::string& robot_id, const LaserScan& m, const WireUse<locd_msg_LaserScan>& use);
+void to_wire(const std::string& robot_id, const PointCloud& m, const WireUse<locd_msg_PointCloud>& use);
+void to_wire(const std::string& robot_id, const Image& m, const WireUse<locd_msg_Image>& use);
+void to_wire(const std::string& robot_id, const LandmarkDetections& m, const WireUse<locd_msg_LandmarkDetections>& use);
+void to_wire(const std::string& robot_id, const PoseEstimate& m, const std::string& plugin, double update_ms,
+             const WireUse<locd_msg_PoseEstimate>& use);
+void to_wire(const std::string& robot_id, const PoseEstimate& m, const WireUse<locd_msg_InitialPose>& use);
+void to_wire(const std::string& robot_id, const Header& h, const GridLayer& g, const WireUse<locd_msg_GridMap>& use);
+void to_wire(const std::string& robot_id, const Header& h, const PointCloud& m, const WireUse<locd_msg_PointCloudMap>& use);
+void to_wire(const std::string& robot_id, const Header& h, const std::vector<MapFeature>& features,
+             const WireUse<locd_msg_LandmarkMap>& use);
+void to_wire(const std::string& robot_id, const Header& h, const std::string& plugin, const Diagnostics& d,
+             const WireUse<locd_msg_Diagnostics>& use);
+void to_wire(const std::string& robot_id, const ExplorationGoal& g, const std::string& plugin,
+             const WireUse<locd_msg_ExplorationGoal>& use);
 
 }  // namespace locd::dds

@@ -10,15 +10,28 @@
 #include <string>
 #include <vector>
 
+#include "locd/sdk/geometry.hpp"
+#include "locd/sdk/types.hpp"
 #include "locd/sim/evaluator.hpp"
 #include "locd/sim/scenario.hpp"
 
 namespace locd::sim {
 
+// Sees a run as it happens (locsim run --mcap records it). Calls come in run order.
+class RunObserver {
+ public:
+  virtual ~RunObserver() = default;
+  virtual void started(const PoseEstimate& initial_pose) {}
+  // Every measurement handed to the plugin, with the truth at its time.
+  virtual void measurement(const Measurement& m, const Pose2& truth) {}
+  virtual void updated(const UpdateResult& update, double update_ms) {}
+};
+
 struct OfflineRunOptions {
   std::vector<std::filesystem::path> plugin_directories;
   std::optional<uint64_t> seed;        // overrides the scenario's
   std::optional<double> duration_s;    // overrides the scenario's
+  RunObserver* observer = nullptr;     // optional
 };
 
 struct RunResult {

@@ -1,0 +1,505 @@
+#include "replay.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "locd/client/client.hpp"
+#include "locd/dds/convert.hpp"
+#include "locd/mcap/mcap.hpp"
+#include "locd/mcap/wire_codec.hpp"
+#include "locd/sdk/errors.hpp"
+#include "locd/sdk/plugin_config.hpp"
+#include "locd/sdk/plugin_loader.hpp"
+#include "locd/sdk/robot_id.hpp"
+#include "locd/sdk/text.hpp"
+#include "locd/sdk/validate.hpp"
+
+namespace locd::sim {
+namespace {
+
+using Json = nlohmann::ordered_json;
+using mcap::TopicInfo;
+using Clock = std::chrono::steady_clock;
+
+// What the replay does with one recorded channel: its locd topic and robot, or why it is skipped.
+struct ChannelPlan {
+  const TopicInfo* topic = nullptr;
+  std::string robot_id;
+  std::string problem;  // non-empty: skipped, and said why
+  uint64_t messages = 0;
+};
+
+ChannelPlan plan_channel(const mcap::Channel& channel, const mcap::Schema* schema) {
+  ChannelPlan plan;
+  auto skip = [&](const std::string& why) {
+    plan.problem = why;
+    return plan;
+  };
+  const auto meta = channel.metadata.find(mcap::kMetaDdsTopic);
+  const std::string dds_topic = meta != channel.metadata.end() ? meta->second : channel.topic;
+  plan.topic = mcap::find_topic(dds_topic);
+  if (!plan.topic) return skip("'" + escaped(dds_topic) + "' is not a locd topic");
+  if (!schema) return skip("it has no schema");
+  if (schema->encoding != mcap::kSchemaEncoding || channel.message_encoding != mcap::kMessageEncoding) {
+    return skip("schema encoding '" + escaped(schema->encoding) + "', message encoding '" +
+                escaped(channel.message_encoding) + "'; locsim replays omgidl / cdr");
+  }
+  if (schema->name != plan.topic->type_name) {
+    return skip("schema '" + escaped(schema->name) + "' is not " + plan.topic->type_name + ", the type of " +
+                plan.topic->topic);
+  }
+  if (schema->data != mcap::locd_idl()) {
+    return skip("its schema text differs from this build's idl/locd.idl (recorded by another locd version): its bytes "
+                "could be misread");
+  }
+  if (plan.topic->per_robot) {
+    const auto robot = channel.metadata.find(mcap::kMetaRobotId);
+    if (robot == channel.metadata.end()) return skip("it names no robot_id in its metadata");
+    if (const std::string error = robot_id_error(robot->second); !error.empty()) return skip(error);
+    plan.robot_id = robot->second;
+  }
+  return plan;
+}
+
+double yaw_of(const Eigen::Isometry3d& T) { return std::atan2(T.linear()(1, 0), T.linear()(0, 0)); }
+
+// The sdk measurement of a sensor sample (from_wire bounds every size, as the server's bridge).
+std::optional<Measurement> to_measurement(const TopicInfo& topic, const void* sample, const Limits& limits) {
+  const std::string name = topic.topic;
+  if (name == topics::kOdometry) return Measurement(dds::from_wire(*static_cast<const locd_msg_Odometry*>(sample)));
+  if (name == topics::kImu) return Measurement(dds::from_wire(*static_cast<const locd_msg_Imu*>(sample)));
+  if (name == topics::kScan) return Measurement(dds::from_wire(*static_cast<const locd_msg_LaserScan*>(sample), limits));
+  if (name == topics::kCloud) return Measurement(dds::from_wire(*static_cast<const locd_msg_PointCloud*>(sample), limits));
+  if (name == topics::kImage) return Measurement(dds::from_wire(*static_cast<const locd_msg_Image*>(sample), limits));
+  if (name == topics::kDetections) {
+    return Measurement(dds::from_wire(*static_cast<const locd_msg_LandmarkDetections*>(sample), limits));
+  }
+  return std::nullopt;
+}
+
+// Sleeps until a recorded log time is due at `rate` times real time (rate 0: never sleeps).
+class Pacer {
+ public:
+  explicit Pacer(double rate) : rate_(rate) {}
+  void wait(uint64_t log_time) {
+    if (rate_ <= 0.0) return;
+    if (!started_) {
+      started_ = true;
+      first_ = log_time;
+      start_ = Clock::now();
+      return;
+    }
+    const double t = static_cast<double>(static_cast<int64_t>(log_time - first_)) * 1e-9 / rate_;
+    std::this_thread::sleep_until(start_ + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(t)));
+  }
+
+ private:
+  double rate_;
+  bool started_ = false;
+  uint64_t first_ = 0;
+  Clock::time_point start_;
+};
+
+// Poses by robot and stamp, recorded or replayed.
+using PoseTrack = std::map<std::string, std::map<int64_t, Eigen::Isometry3d>>;
+
+struct RobotReport {
+  std::string plugin;
+  uint64_t fed = 0, rejected = 0, no_session = 0;
+  std::string last_error;
+};
+
+// The replay target: offline plugins or a running locd.
+class Target {
+ public:
+  virtual ~Target() = default;
+  // Feeds one robot-input sample; returns false when the replay cannot go on (e.g. no answer).
+  virtual bool feed(const TopicInfo& topic, const std::string& robot, const void* sample) = 0;
+  virtual void finish() {}
+  virtual PoseTrack poses() = 0;
+  std::map<std::string, RobotReport> robots;
+};
+
+// ---------------------------------------------------------------------------------- offline
+
+class OfflineTarget : public Target {
+ public:
+  explicit OfflineTarget(const ReplayOptions& o) : catalog_(o.plugin_directories), maps_(o.map_directories) {}
+
+  bool feed(const TopicInfo& topic, const std::string& robot, const void* sample) override {
+    Session& s = sessions_[robot];
+    RobotReport& report = robots[robot];
+    const std::string name = topic.topic;
+    auto reject = [&](const std::string& error) {
+      ++report.rejected;
+      report.last_error = error;
+    };
+    if (name == topics::kSessionRequest) {
+      const auto& q = *static_cast<const locd_msg_SessionRequest*>(sample);
+      s.last_stamp.fill(std::nullopt);
+      if (q.action == locd_msg_SESSION_STOP) {
+        s.localizer.reset();
+        return true;
+      }
+      const std::string source = "recorded session request " + std::to_string(q.request_id) + " for robot '" + robot + "'";
+      try {
+        const PluginConfig config = split_plugin_config(dds::to_string(q.config_yaml), source);
+        PluginContext context;
+        context.robot_id = robot;
+        context.maps = maps_;
+        LocalizerPtr next = create_configured(catalog_, config.plugin, context, config.params);
+        if (s.last_pose) next->set_pose(*s.last_pose);
+        s.localizer = std::move(next);
+        report.plugin = config.plugin;
+      } catch (const std::exception& e) {
+        reject(std::string("session request refused: ") + e.what());  // a failed switch keeps the old plugin
+      }
+      return true;
+    }
+    if (name == topics::kInitialPose) {
+      try {
+        const PoseEstimate pose = dds::from_wire(*static_cast<const locd_msg_InitialPose*>(sample));
+        s.last_pose = pose;
+        if (s.localizer) s.localizer->set_pose(pose);
+      } catch (const std::exception& e) {
+        reject(std::string("initial pose rejected: ") + e.what());
+      }
+      return true;
+    }
+    std::optional<Measurement> m;
+    try {
+      m = to_measurement(topic, sample, limits_);
+      if (!m) return true;  // a map-save request: nothing to compute offline
+      validate(*m);
+    } catch (const std::exception& e) {
+      reject("rejected message on " + name + ": " + e.what());
+      return true;
+    }
+    if (!s.localizer) {
+      ++report.no_session;
+      return true;
+    }
+    const size_t kind = static_cast<size_t>(m->index());
+    const int64_t stamp = header_of(*m).stamp_ns;
+    if (s.last_stamp[kind] && stamp < *s.last_stamp[kind]) {
+      reject("stamp going backwards on " + name);
+      return true;
+    }
+    s.last_stamp[kind] = stamp;
+    ++report.fed;
+    try {
+      const UpdateResult update = s.localizer->update(*m);
+      if (update.estimate) {
+        s.last_pose = *update.estimate;
+        poses_[robot][update.estimate->header.stamp_ns] = update.estimate->pose;
+      }
+    } catch (const InputError& e) {
+      reject(std::string("plugin refused a message on ") + name + ": " + e.what());
+    }
+    return true;
+  }
+
+  PoseTrack poses() override { return poses_; }
+
+ private:
+  struct Session {
+    LocalizerPtr localizer;
+    std::optional<PoseEstimate> last_pose;
+    std::array<std::optional<int64_t>, std::variant_size_v<Measurement>> last_stamp;
+  };
+  PluginCatalog catalog_;
+  MapResolver maps_;
+  Limits limits_;
+  std::map<std::string, Session> sessions_;
+  PoseTrack poses_;
+};
+
+// ---------------------------------------------------------------------------------- DDS
+
+class DdsTarget : public Target {
+ public:
+  DdsTarget(const ReplayOptions& o, Client& client) : options_(o), client_(client), participant_(o.domain_id) {
+    client_.on_pose([this](const PoseUpdate& p) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      poses_[p.robot_id][p.estimate.header.stamp_ns] = p.estimate.pose;
+    });
+    client_.on_status([this](const SessionStatus& s) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      statuses_[s.robot_id].push_back(s);
+      changed_.notify_all();
+    });
+  }
+
+  bool feed(const TopicInfo& topic, const std::string& robot, const void* sample) override {
+    RawWriter& w = writer_for(topic, robot);
+    if (!w.matched) {
+      const auto deadline = Clock::now() + timeout();
+      while (matched_readers(w) == 0 && Clock::now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      if (matched_readers(w) == 0) {
+        std::cerr << "locsim replay: no locd reads " << topic.topic << " in partition " << topics::robot_partition(robot)
+                  << " on domain " << options_.domain_id << " within " << options_.server_timeout_s << " s\n";
+        return false;
+      }
+      w.matched = true;
+    }
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      statuses_[robot].clear();  // the answer must come after this write
+    }
+    dds::check(dds_write(w.writer.handle(), sample), (std::string("write ") + topic.topic).c_str());
+    ++robots[robot].fed;
+    const std::string name = topic.topic;
+    if (name == topics::kSessionRequest) {
+      const auto& q = *static_cast<const locd_msg_SessionRequest*>(sample);
+      return await(robot, "the answer to session request " + std::to_string(q.request_id), [&](const SessionStatus& s) {
+        if (s.request_id != q.request_id || s.state == "starting") return false;
+        robots[robot].plugin = s.plugin;
+        if (!s.request_ok) robots[robot].last_error = s.message;
+        return true;
+      });
+    }
+    if (name == topics::kInitialPose) {
+      const int64_t stamp = static_cast<const locd_msg_InitialPose*>(sample)->header.stamp_ns;
+      return await(robot, "the server to hold the initial pose", [&](const SessionStatus& s) {
+        return s.initial_pose_stamp_ns == stamp || s.last_error.rfind("initial pose rejected", 0) == 0 ||
+               s.state == "no_session";
+      });
+    }
+    return true;
+  }
+
+  void finish() override {
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));  // poses still in flight
+    for (const auto& s : client_.statuses()) {
+      if (!robots.count(s.robot_id)) continue;
+      robots[s.robot_id].rejected = s.rejected;
+      if (!s.last_error.empty()) robots[s.robot_id].last_error = s.last_error;
+    }
+  }
+
+  PoseTrack poses() override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return poses_;
+  }
+
+ private:
+  struct RawWriter {
+    dds::Entity publisher, writer;
+    bool matched = false;
+  };
+
+  std::chrono::milliseconds timeout() const {
+    return std::chrono::milliseconds(static_cast<int64_t>(options_.server_timeout_s * 1000));
+  }
+
+  RawWriter& writer_for(const TopicInfo& topic, const std::string& robot) {
+    auto key = std::make_pair(std::string(topic.topic), robot);
+    auto it = writers_.find(key);
+    if (it != writers_.end()) return it->second;
+    RawWriter w;
+    const dds_entity_t t = dds::create_topic(participant_, *topic.descriptor, topic.topic);
+    auto qos = dds::make_qos(topic.transient_local ? dds::QosProfile::kState : dds::QosProfile::kSensor, 8);
+    w.publisher = dds::publisher_for(participant_, {topics::robot_partition(robot)});
+    w.writer = dds::Entity(dds::check(dds_create_writer(w.publisher.handle(), t, qos.get(), nullptr),
+                                      (std::string("create writer on ") + topic.topic).c_str()));
+    return writers_.emplace(key, std::move(w)).first->second;
+  }
+
+  static uint32_t matched_readers(const RawWriter& w) {
+    dds_publication_matched_status_t s{};
+    dds_get_publication_matched_status(w.writer.handle(), &s);
+    return s.current_count;
+  }
+
+  template <typename Done>
+  bool await(const std::string& robot, const std::string& what, Done done) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    const bool ok = changed_.wait_for(lock, timeout(), [&] {
+      for (const auto& s : statuses_[robot]) {
+        if (done(s)) return true;
+      }
+      return false;
+    });
+    if (!ok) {
+      std::cerr << "locsim replay: robot '" << robot << "': no status announced " << what << " within "
+                << options_.server_timeout_s << " s\n";
+    }
+    return ok;
+  }
+
+  const ReplayOptions& options_;
+  Client& client_;
+  dds::Participant participant_;
+  std::map<std::pair<std::string, std::string>, RawWriter> writers_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::map<std::string, std::vector<SessionStatus>> statuses_;
+  PoseTrack poses_;
+};
+
+}  // namespace
+
+int run_replay(const ReplayOptions& options) {
+  std::ostream& log = options.json ? std::cerr : std::cout;
+  mcap::Reader reader(options.file);  // FormatError for a file that is not MCAP
+  std::unique_ptr<Client> client;
+  std::unique_ptr<Target> target;
+  if (options.offline) {
+    target = std::make_unique<OfflineTarget>(options);
+  } else {
+    client = std::make_unique<Client>(ClientOptions{options.domain_id, "", 8, {"*"}});
+    if (!client->wait_for_server(std::chrono::milliseconds(static_cast<int64_t>(options.server_timeout_s * 1000)))) {
+      std::cerr << "locsim replay: no locd server answered on DDS domain " << options.domain_id << " within "
+                << options.server_timeout_s << " s (is locd running with the same CYCLONEDDS_URI and domain?)\n";
+      return 2;
+    }
+    target = std::make_unique<DdsTarget>(options, *client);
+  }
+  Pacer pacer(options.rate.value_or(options.offline ? 0.0 : 1.0));
+
+  std::map<uint16_t, ChannelPlan> plans;
+  PoseTrack recorded;
+  uint64_t messages = 0, replayed = 0, undecodable = 0, first_log = 0, last_log = 0, first_input = 0, last_input = 0;
+  std::string last_undecodable, format_error;
+  bool stopped = false;
+  mcap::ReadSummary summary;
+  const auto wall_start = Clock::now();
+  try {
+    summary = reader.read([&](const mcap::Message& m) {
+      if (stopped) return;
+      if (messages++ == 0) first_log = m.log_time;
+      last_log = std::max(last_log, m.log_time);
+      auto it = plans.find(m.channel->id);
+      if (it == plans.end()) {
+        it = plans.emplace(m.channel->id, plan_channel(*m.channel, m.schema)).first;
+        if (!it->second.problem.empty()) {
+          std::cerr << "locsim replay: skipping channel '" << escaped(m.channel->topic) << "': " << it->second.problem << "\n";
+        }
+      }
+      ChannelPlan& plan = it->second;
+      if (!plan.problem.empty()) return;
+      ++plan.messages;
+      if (!options.robots.empty() && plan.topic->per_robot &&
+          std::find(options.robots.begin(), options.robots.end(), plan.robot_id) == options.robots.end()) {
+        return;
+      }
+      const bool pose = std::string(plan.topic->topic) == topics::kPose;
+      if (!pose && !plan.topic->robot_input) return;
+      mcap::SamplePtr sample;
+      try {
+        sample = mcap::decode(*plan.topic->descriptor, m.data, m.size);
+      } catch (const std::exception& e) {
+        ++undecodable;
+        last_undecodable = "channel '" + escaped(m.channel->topic) + "': " + e.what();
+        return;
+      }
+      if (plan.topic->per_robot && std::string(static_cast<const char*>(sample.get())) != plan.robot_id) {  // robot_id: first member
+        ++undecodable;
+        last_undecodable = "channel '" + escaped(m.channel->topic) + "' holds a sample of another robot";
+        return;
+      }
+      if (pose) {
+        const auto& p = *static_cast<const locd_msg_PoseEstimate*>(sample.get());
+        try {
+          recorded[plan.robot_id][p.header.stamp_ns] = dds::from_wire(p.pose);
+        } catch (const std::exception&) {
+        }
+        return;
+      }
+      pacer.wait(m.log_time);
+      if (replayed++ == 0) first_input = m.log_time;
+      last_input = m.log_time;
+      if (!target->feed(*plan.topic, plan.robot_id, sample.get())) stopped = true;
+    });
+  } catch (const mcap::FormatError& e) {
+    format_error = e.what();
+  }
+  target->finish();
+  const double wall_s = std::chrono::duration<double>(Clock::now() - wall_start).count();
+  const double span_s = static_cast<double>(last_log - first_log) * 1e-9;        // the whole recording
+  const double input_s = static_cast<double>(last_input - first_input) * 1e-9;  // what was replayed
+
+  // Stamp by stamp: the poses this replay produced against the poses recorded.
+  const PoseTrack replayed_poses = target->poses();
+  Json robots = Json::array();
+  bool every_robot_posed = !target->robots.empty();
+  for (const auto& [robot, report] : target->robots) {
+    const auto& mine = replayed_poses.count(robot) ? replayed_poses.at(robot) : std::map<int64_t, Eigen::Isometry3d>{};
+    const auto& theirs = recorded.count(robot) ? recorded.at(robot) : std::map<int64_t, Eigen::Isometry3d>{};
+    size_t matched = 0, identical = 0;  // identical: within 1e-9 m and 1e-9 rad
+    double max_position = 0.0, sum_position = 0.0, max_yaw = 0.0;
+    for (const auto& [stamp, pose] : mine) {
+      const auto r = theirs.find(stamp);
+      if (r == theirs.end()) continue;
+      ++matched;
+      const double d = (pose.translation() - r->second.translation()).norm();
+      const double dyaw = std::abs(std::remainder(yaw_of(pose) - yaw_of(r->second), 2.0 * M_PI));
+      max_position = std::max(max_position, d);
+      sum_position += d;
+      max_yaw = std::max(max_yaw, dyaw);
+      if (d <= 1e-9 && dyaw <= 1e-9) ++identical;
+    }
+    if (mine.empty()) every_robot_posed = false;
+    robots.push_back({{"robot", robot}, {"plugin", report.plugin}, {"fed", report.fed}, {"rejected", report.rejected},
+                      {"no_session", report.no_session}, {"last_error", report.last_error},
+                      {"poses", mine.size()}, {"recorded_poses", theirs.size()}, {"matched", matched}, {"identical", identical},
+                      {"max_position_diff_m", max_position},
+                      {"mean_position_diff_m", matched ? sum_position / static_cast<double>(matched) : 0.0},
+                      {"max_yaw_diff_rad", max_yaw}});
+  }
+  Json skipped = Json::array();
+  for (const auto& [id, plan] : plans) {
+    if (!plan.problem.empty()) skipped.push_back({{"channel", id}, {"reason", plan.problem}});
+  }
+  Json out = {{"file", options.file},
+              {"mode", options.offline ? "offline" : "dds"},
+              {"messages", messages},
+              {"replayed", replayed},
+              {"undecodable", undecodable},
+              {"last_undecodable", last_undecodable},
+              {"skipped_channels", skipped},
+              {"recording_complete", summary.complete},
+              {"incomplete_reason", format_error.empty() ? summary.incomplete_reason : format_error},
+              {"recorded_span_s", span_s},
+              {"replayed_span_s", input_s},
+              {"wall_s", wall_s},
+              {"speed_x_real_time", wall_s > 0 ? input_s / wall_s : 0.0},
+              {"robots", robots}};
+  if (options.json) {
+    std::cout << out.dump() << "\n";
+  } else {
+    log << "replayed " << replayed << " of " << messages << " messages (" << input_s << " s of the " << span_s
+        << " s recorded) in " << wall_s << " s (" << (wall_s > 0 ? input_s / wall_s : 0.0) << "x real time), " << (options.offline ? "offline" : "into locd")
+        << "\n";
+    for (const auto& r : robots) {
+      log << "  " << r["robot"].get<std::string>() << " (" << r["plugin"].get<std::string>() << "): " << r["poses"]
+          << " poses, " << r["matched"] << " at recorded stamps (" << r["identical"] << " identical), max difference " << r["max_position_diff_m"] << " m / "
+          << r["max_yaw_diff_rad"] << " rad; rejected " << r["rejected"]
+          << (r["last_error"].get<std::string>().empty() ? "" : " (last: " + r["last_error"].get<std::string>() + ")")
+          << "\n";
+    }
+  }
+  if (!format_error.empty()) {
+    std::cerr << "locsim replay: " << format_error << "; the " << replayed << " messages before it were replayed\n";
+    return 1;
+  }
+  if (!summary.complete) std::cerr << "locsim replay: warning: " << options.file << ": " << summary.incomplete_reason << "\n";
+  if (undecodable > 0) std::cerr << "locsim replay: " << undecodable << " messages not decodable, last: " << last_undecodable << "\n";
+  if (stopped) return 2;
+  if (!every_robot_posed) {
+    std::cerr << "locsim replay: " << (target->robots.empty() ? "the recording holds no robot input to replay"
+                                                              : "a robot got no pose from the replay") << "\n";
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace locd::sim

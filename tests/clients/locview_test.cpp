@@ -1,0 +1,301 @@
+// locview as people run it: locd localizes a simulated robot (locsim live) over loopback DDS, and
+// the Foxglove WebSocket client from npm (@foxglove/ws-protocol) connects to locview, subscribes
+// and decodes the robot's pose; a misbehaving client (garbage, unknown channels, 1000
+// connections) gets clear errors and the view keeps serving. Plus the Foxglove conversions
+// against values computed by hand.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <thread>
+
+#include <unistd.h>
+
+#include "child_process.hpp"
+#include "foxglove.hpp"
+#include "locd/dds/dds.hpp"
+#include "node_client.hpp"
+#include "test_env.hpp"
+#include "test_server.hpp"
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using locd::test::ChildProcess;
+using locd::test::TestServer;
+
+namespace {
+
+constexpr int kDomainView = 120;
+constexpr int kDomainAbuse = 121;
+
+std::string binary(const std::string& name) { return locd::test::binary_dir() + "/bin/" + name; }
+
+// Waits for locview's start line and returns its port (0 when it did not start).
+int wait_for_port(ChildProcess& view) {
+  const std::regex line("serving the fleet of DDS domain [0-9]+ on ws://127\\.0\\.0\\.1:([0-9]+)");
+  for (int i = 0; i < 200; ++i) {
+    std::smatch m;
+    const std::string out = view.output();
+    if (std::regex_search(out, m, line)) return std::stoi(m[1]);
+    std::this_thread::sleep_for(50ms);
+  }
+  return 0;
+}
+
+struct Fleet {
+  TestServer server;
+  ChildProcess view;
+  ChildProcess robot;
+  int port = 0;
+  Fleet(const std::string& name, int domain, std::vector<std::string> view_args, int robot_seconds)
+      : server(name, domain),
+        view(binary("locview"),
+             [&] {
+               std::vector<std::string> a = {"--domain", std::to_string(domain), "--port", "0", "--address", "127.0.0.1"};
+               a.insert(a.end(), view_args.begin(), view_args.end());
+               return a;
+             }(),
+             (server.dir() / "locview.log").string()),
+        robot(binary("locsim"),
+              {"live", locd::test::source_dir() + "/config/scenarios/corridor.yaml", "--domain", std::to_string(domain),
+               "--duration", std::to_string(robot_seconds), "--json", "--server-timeout", "20"},
+              (server.dir() / "locsim.log").string()) {
+    port = wait_for_port(view);
+  }
+  std::string url() const { return "ws://127.0.0.1:" + std::to_string(port); }
+};
+
+}  // namespace
+
+TEST(Locview, FoxgloveClientDecodesThePoseOfARobotLocdLocalizes) {
+  Fleet fleet("locview_pose", kDomainView, {}, 14);
+  ASSERT_GT(fleet.port, 0) << fleet.view.output();
+  std::this_thread::sleep_for(2s);  // the session starts, poses flow
+  int exit_code = 0;
+  const auto lines = locd::test::json_lines(locd::test::run_node("view_client.mjs", {fleet.url(), "corridor_bot", "6"}, exit_code));
+  ASSERT_EQ(exit_code, 0) << fleet.view.output();
+  ASSERT_FALSE(lines.empty());
+  const auto& summary = lines.back()["summary"];
+  EXPECT_EQ(summary["server"], "locview (locd fleet)");
+  EXPECT_TRUE(summary["statuses"].empty()) << summary.dump();
+  std::map<std::string, std::string> schema_of;
+  for (const auto& c : summary["channels"]) {
+    EXPECT_EQ(c["encoding"], "json");
+    schema_of[c["topic"]] = c["schemaName"];
+  }
+  EXPECT_EQ(schema_of["/corridor_bot/pose"], "foxglove.PoseInFrame");
+  EXPECT_EQ(schema_of["/corridor_bot/transforms"], "foxglove.FrameTransform");
+  EXPECT_EQ(schema_of["/corridor_bot/scan"], "foxglove.PointCloud");
+  EXPECT_EQ(schema_of["/corridor_bot/landmark_map"], "foxglove.SceneUpdate");
+  EXPECT_EQ(schema_of["/corridor_bot/pose_covariance"], "foxglove.SceneUpdate");
+  EXPECT_EQ(schema_of["/corridor_bot/status"], "locd.SessionStatus");
+  // Every message of a Foxglove type is valid under Foxglove's own JSON schema.
+  EXPECT_TRUE(summary["invalid"].empty()) << summary["invalid"].dump();
+  for (const char* schema : {"foxglove.PoseInFrame", "foxglove.FrameTransform", "foxglove.PointCloud", "foxglove.SceneUpdate"}) {
+    EXPECT_GT(summary["validated"].value(schema, 0), 0) << schema << " " << summary["validated"].dump();
+  }
+
+  // Every pose decoded is where the simulated truth at its stamp says the robot is.
+  std::map<std::string, std::pair<double, double>> truth;
+  std::vector<nlohmann::json> poses;
+  bool running = false;
+  for (const auto& l : lines) {
+    if (!l.contains("topic")) continue;
+    if (l["topic"] == "/corridor_bot/ground_truth") truth[l["stamp_ns"]] = {l["x"], l["y"]};
+    if (l["topic"] == "/corridor_bot/pose") poses.push_back(l);
+    if (l["topic"] == "/corridor_bot/status") running = running || l["state"] == "running";
+  }
+  EXPECT_TRUE(running);
+  EXPECT_GT(poses.size(), 50u);  // 6 s of 25 Hz poses
+  size_t compared = 0;
+  for (const auto& p : poses) {
+    EXPECT_EQ(p["frame_id"], "map");
+    EXPECT_EQ(p["log_time"], p["stamp_ns"]);
+    const auto t = truth.find(p["stamp_ns"]);
+    if (t == truth.end()) continue;
+    ++compared;
+    EXPECT_LT(std::hypot(p["x"].get<double>() - t->second.first, p["y"].get<double>() - t->second.second), 0.2)
+        << p.dump();
+  }
+  EXPECT_GT(compared, poses.size() / 2);
+  EXPECT_TRUE(fleet.view.running());
+}
+
+TEST(Locview, GarbageAndAThousandConnectionsGetErrorsAndTheViewServesOn) {
+  Fleet fleet("locview_abuse", kDomainAbuse, {"--max-clients", "8"}, 20);
+  ASSERT_GT(fleet.port, 0) << fleet.view.output();
+  std::this_thread::sleep_for(2s);
+  int exit_code = 0;
+  const auto lines = locd::test::json_lines(locd::test::run_node("view_abuse.mjs", {fleet.url(), "corridor_bot", "1000"}, exit_code));
+  ASSERT_EQ(exit_code, 0);
+  ASSERT_EQ(lines.size(), 1u);
+  const auto& r = lines[0];
+  std::string statuses;
+  for (const auto& s : r["statuses"]) statuses += s.get<std::string>() + "\n";
+  for (const char* expected :
+       {"message is not JSON: 'this is not json {'", "not a JSON object with a string 'op'",
+        "op 'publishEverything\\x07' is not supported; locview serves subscribe and unsubscribe",
+        "channel 999999 is not advertised (subscription 1)", "needs unsigned 32-bit 'id' and 'channelId'",
+        "subscribe needs an array 'subscriptions'", "no subscription '12345' to unsubscribe",
+        "binary messages from clients are not supported"}) {
+    EXPECT_NE(statuses.find(expected), std::string::npos) << "missing: " << expected << "\ngot:\n" << statuses;
+  }
+  // Closed as too big (1009), or reset while the client was still sending it (1006).
+  const int oversized = r["oversized_closed_with"];
+  EXPECT_TRUE(oversized == 1009 || oversized == 1006) << oversized;
+  EXPECT_LE(r["opened"].get<int>(), 8);
+  EXPECT_EQ(r["opened"].get<int>() + r["refused"].get<int>(), 1000) << r.dump();
+  EXPECT_EQ(r["after"]["server"], "locview (locd fleet)");
+  EXPECT_GT(r["after"]["poses"].get<int>(), 10) << r.dump();
+  EXPECT_TRUE(fleet.view.running());
+  EXPECT_TRUE(fleet.server.process().running());
+  EXPECT_NE(fleet.view.output().find("refused a client"), std::string::npos);
+}
+
+// ------------------------------------------------------------------------------ conversions
+
+TEST(FoxgloveConversion, CovarianceEllipseHasTwoSigmaHalfAxesAlongTheEigenvectors) {
+  locd_msg_PoseEstimate pose{};
+  locd::dds::copy_string(pose.robot_id, "r1");
+  pose.pose.position = {1.0, 2.0, 0.0};
+  pose.pose.orientation.w = 1.0;
+  // sigma 2 m along 30 degrees, 0.5 m across.
+  const double a = M_PI / 6, s1 = 4.0, s2 = 0.25;
+  pose.covariance[0] = s1 * std::cos(a) * std::cos(a) + s2 * std::sin(a) * std::sin(a);
+  pose.covariance[7] = s1 * std::sin(a) * std::sin(a) + s2 * std::cos(a) * std::cos(a);
+  pose.covariance[1] = pose.covariance[6] = (s1 - s2) * std::sin(a) * std::cos(a);
+  const auto scene = locd::view::covariance_ellipse(pose);
+  const auto& sphere = scene["entities"][0]["spheres"][0];
+  EXPECT_NEAR(sphere["size"]["x"].get<double>(), 8.0, 1e-9);  // 4 sigma across the major axis
+  EXPECT_NEAR(sphere["size"]["y"].get<double>(), 2.0, 1e-9);
+  const double yaw = 2 * std::atan2(sphere["pose"]["orientation"]["z"].get<double>(),
+                                    sphere["pose"]["orientation"]["w"].get<double>());
+  EXPECT_NEAR(std::remainder(yaw - a, M_PI), 0.0, 1e-9);  // an ellipse is symmetric under half turns
+  EXPECT_EQ(scene["entities"][0]["id"], "r1/covariance");
+}
+
+TEST(FoxgloveConversion, Base64AndScanReturns) {
+  EXPECT_EQ(locd::view::base64("foobar", 6), "Zm9vYmFy");
+  EXPECT_EQ(locd::view::base64("fooba", 5), "Zm9vYmE=");
+  EXPECT_EQ(locd::view::base64("fo", 2), "Zm8=");
+  locd_msg_LaserScan scan{};
+  locd::dds::copy_string(scan.robot_id, "r1");
+  scan.range_min = 0.1f;
+  scan.range_max = 10.0f;
+  scan.angle_min = 0.0f;
+  scan.angle_increment = static_cast<float>(M_PI / 2);
+  float ranges[3] = {1.0f, 50.0f, 2.0f};  // the middle beam has no return
+  scan.ranges._buffer = ranges;
+  scan.ranges._length = 3;
+  const auto cloud = locd::view::laser_scan(scan);
+  EXPECT_EQ(cloud["frame_id"], "r1/base_link");
+  EXPECT_EQ(cloud["point_stride"], 12);
+  const double third = 2.0 * static_cast<double>(scan.angle_increment);  // the third beam's angle
+  const float expected[6] = {1.0f, 0.0f, 0.0f, static_cast<float>(2.0 * std::cos(third)),
+                             static_cast<float>(2.0 * std::sin(third)), 0.0f};
+  EXPECT_EQ(cloud["data"], locd::view::base64(expected, sizeof expected));
+}
+
+TEST(FoxgloveConversion, GridKeepsRowMajorCellsFromTheOrigin) {
+  locd_msg_GridMap g{};
+  locd::dds::copy_string(g.robot_id, "r1");
+  locd::dds::copy_string(g.layer, "belief");
+  g.resolution = 0.5;
+  g.origin_x = -1.0;
+  g.origin_y = 2.0;
+  g.width = 3;
+  g.height = 2;
+  float cells[6] = {0, 1, 2, 3, 4, 5};
+  g.cells._buffer = cells;
+  g.cells._length = 6;
+  const auto j = locd::view::grid(g);
+  EXPECT_EQ(j["column_count"], 3);
+  EXPECT_EQ(j["row_stride"], 12);
+  EXPECT_EQ(j["fields"][0]["name"], "belief");
+  EXPECT_EQ(j["fields"][0]["type"], 7);  // FLOAT32
+  EXPECT_DOUBLE_EQ(j["pose"]["position"]["x"].get<double>(), -1.0);
+  EXPECT_EQ(j["data"], locd::view::base64(cells, sizeof cells));
+  EXPECT_NO_THROW(nlohmann::json::parse(locd::view::json_schema("foxglove.Grid")));
+  EXPECT_EQ(nlohmann::json::parse(locd::view::json_schema("foxglove.Grid"))["properties"]["data"]["contentEncoding"], "base64");
+}
+
+TEST(FoxgloveConversion, EveryKindOfMessageIsValidUnderFoxglovesOwnSchema) {
+  using namespace locd::view;
+  locd_msg_PoseEstimate pose{};
+  locd::dds::copy_string(pose.robot_id, "r1");
+  pose.pose.orientation.w = 1.0;
+  pose.covariance[0] = pose.covariance[7] = 0.04;
+  locd_msg_Particle particle_buffer[2] = {{1, 2, 0.5, 0.5}, {1.1, 2, 0.4, 0.5}};
+  locd_msg_Diagnostics diagnostics{};
+  locd::dds::copy_string(diagnostics.robot_id, "r1");
+  diagnostics.particles._buffer = particle_buffer;
+  diagnostics.particles._length = 2;
+  float ranges[2] = {1.0f, 2.0f}, intensities[2] = {10.0f, 20.0f};
+  locd_msg_LaserScan scan{};
+  locd::dds::copy_string(scan.robot_id, "r1");
+  scan.range_max = 10.0f;
+  scan.angle_increment = 0.1f;
+  scan.sensor_pose.orientation.w = 1.0;
+  scan.ranges._buffer = ranges;
+  scan.ranges._length = 2;
+  scan.intensities._buffer = intensities;
+  scan.intensities._length = 2;
+  float xyz[6] = {1, 2, 3, 4, 5, 6};
+  locd_msg_PointCloud cloud{};
+  locd::dds::copy_string(cloud.robot_id, "r1");
+  cloud.sensor_pose.orientation.w = 1.0;
+  cloud.xyz._buffer = xyz;
+  cloud.xyz._length = 6;
+  locd_msg_PointCloudMap map{};
+  locd::dds::copy_string(map.robot_id, "r1");
+  map.xyz._buffer = xyz;
+  map.xyz._length = 6;
+  float cells[4] = {0, 0.5f, 1, NAN};
+  locd_msg_GridMap g{};
+  locd::dds::copy_string(g.robot_id, "r1");
+  locd::dds::copy_string(g.layer, "belief");
+  g.resolution = 0.1;
+  g.width = g.height = 2;
+  g.cells._buffer = cells;
+  g.cells._length = 4;
+  locd_msg_LandmarkFeature features[2] = {};
+  locd::dds::copy_string(features[0].kind, "line");
+  features[0].b = {1, 0, 0};
+  locd::dds::copy_string(features[1].kind, "lamp");
+  locd::dds::copy_string(features[1].id, "L7");
+  locd_msg_LandmarkMap landmarks{};
+  locd::dds::copy_string(landmarks.robot_id, "r1");
+  landmarks.features._buffer = features;
+  landmarks.features._length = 2;
+  locd_msg_ExplorationGoal goal{};
+  goal.pose.orientation.w = 1.0;
+  const nlohmann::json messages = nlohmann::json::array({
+      {{"schemaName", "foxglove.PoseInFrame"}, {"message", pose_in_frame(pose.header, pose.pose)}},
+      {{"schemaName", "foxglove.FrameTransform"}, {"message", base_transform(pose)}},
+      {{"schemaName", "foxglove.SceneUpdate"}, {"message", covariance_ellipse(pose)}},
+      {{"schemaName", "foxglove.PosesInFrame"}, {"message", particles(diagnostics)}},
+      {{"schemaName", "foxglove.PointCloud"}, {"message", laser_scan(scan)}},
+      {{"schemaName", "foxglove.PointCloud"}, {"message", sensor_cloud(cloud)}},
+      {{"schemaName", "foxglove.PointCloud"}, {"message", locd::view::map_cloud(map)}},
+      {{"schemaName", "foxglove.Grid"}, {"message", grid(g)}},
+      {{"schemaName", "foxglove.SceneUpdate"}, {"message", landmark_scene(landmarks)}},
+      {{"schemaName", "foxglove.PoseInFrame"}, {"message", exploration_goal(goal)}},
+  });
+  const fs::path file = fs::temp_directory_path() / ("foxglove_messages_" + std::to_string(::getpid()) + ".json");
+  std::ofstream(file) << messages.dump();
+  int exit_code = 0;
+  const auto out = locd::test::json_lines(locd::test::run_node("validate_foxglove.mjs", {file.string()}, exit_code));
+  fs::remove(file);
+  ASSERT_EQ(exit_code, 0);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_TRUE(out[0]["invalid"].empty()) << out[0].dump();
+  int validated = 0;
+  for (const auto& [name, count] : out[0]["validated"].items()) validated += count.get<int>();
+  EXPECT_EQ(validated, 10) << out[0].dump();
+  // And the schemas locview advertises name the same required fields as Foxglove's.
+  EXPECT_NE(json_schema("foxglove.SceneUpdate").find("\"models\""), std::string::npos);
+}
