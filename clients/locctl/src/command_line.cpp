@@ -21,6 +21,13 @@ Commands:
   stop ROBOT                   end ROBOT's session
   initial-pose ROBOT X Y YAW   give ROBOT's localizer its pose (metres, YAW in radians)
                                [--std-xy M (default 0.5)] [--std-yaw RAD (default 0.2)]
+  security init FLEET          make the fleet's CA and signed governance in folder FLEET
+  security robot FLEET ROBOT   make an identity in FLEET/<role>/<name>: key, certificate, signed
+  security operator FLEET NAME   permissions and cyclonedds.xml (DDS Security config). A robot
+  security monitor FLEET NAME    feeds and steers only itself, an operator steers any robot, a
+  security server FLEET NAME     monitor only reads, a server serves
+                               [--days N (default 365)] [--start 2026-11-25T10:00:00Z (default now)]
+  security revoke FLEET ROLE NAME  revoke an identity; copies the new CRL into FLEET's identities
 
 Options:
   --domain N     DDS domain id 0..232 (default: env LOCD_DOMAIN, else 0)
@@ -43,7 +50,7 @@ constexpr size_t kMaxRobotIdLength = 64;  // locd.idl ROBOT_ID_MAX
 const std::map<std::string, std::pair<size_t, size_t>>& command_arity() {
   static const std::map<std::string, std::pair<size_t, size_t>> arity = {
       {"use", {2, 2}},   {"status", {0, 1}}, {"watch", {1, 1}},        {"plugins", {0, 0}},
-      {"stop", {1, 1}},  {"help", {0, 0}},   {"initial-pose", {4, 4}},
+      {"stop", {1, 1}},  {"help", {0, 0}},   {"initial-pose", {4, 4}}, {"security", {2, 4}},
   };
   return arity;
 }
@@ -54,6 +61,7 @@ const char* arguments_of(const std::string& command) {
   if (command == "watch") return "ROBOT";
   if (command == "stop") return "ROBOT";
   if (command == "initial-pose") return "ROBOT X Y YAW";
+  if (command == "security") return "init FLEET | robot|operator|monitor|server FLEET NAME | revoke FLEET ROLE NAME";
   return "no arguments";
 }
 
@@ -89,7 +97,7 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
   app.set_help_flag();
   app.allow_extras();
   std::vector<std::string> words;
-  std::string domain, timeout, count, std_xy, std_yaw;
+  std::string domain, timeout, count, std_xy, std_yaw, days, start;
   app.add_option("words", words);
   app.add_flag("--help,-h", cl.help);
   app.add_flag("--json", cl.json);
@@ -98,9 +106,12 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
   app.add_option("--count", count);
   app.add_option("--std-xy", std_xy);
   app.add_option("--std-yaw", std_yaw);
+  app.add_option("--days", days);
+  app.add_option("--start", start);
   for (size_t i = 0; i < args.size(); ++i) {
     const bool takes_value = args[i] == "--domain" || args[i] == "--timeout" || args[i] == "--count" ||
-                             args[i] == "--std-xy" || args[i] == "--std-yaw";
+                             args[i] == "--std-xy" || args[i] == "--std-yaw" || args[i] == "--days" ||
+                             args[i] == "--start";
     if (takes_value && i + 1 == args.size()) throw UsageError("option " + args[i] + " needs a value");
   }
   std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them last first
@@ -128,6 +139,8 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
     cl.std_yaw = parse_number("--std-yaw", std_yaw);
     if (!(cl.std_yaw > 0.0)) throw UsageError("--std-yaw = " + std_yaw + " must be > 0 (radians)");
   }
+  if (!days.empty()) cl.days = parse_integer("--days", days, 1, 36500);
+  if (!start.empty()) cl.start = start;
   if (words.empty()) {
     if (cl.help) {
       cl.command = "help";
@@ -149,6 +162,21 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
                      std::to_string(cl.arguments.size()) + " argument(s); see locctl --help");
   }
   if (cl.count && cl.command != "watch") throw UsageError("--count applies to 'watch' only");
+  if ((cl.days || cl.start) && cl.command != "security") throw UsageError("--days and --start apply to 'security' only");
+  if (cl.command == "security") {
+    const std::string& verb = cl.arguments[0];
+    const size_t expected = verb == "init" ? 2 : verb == "revoke" ? 4 : 3;
+    if (verb != "init" && verb != "revoke" && verb != "robot" && verb != "operator" && verb != "monitor" &&
+        verb != "server") {
+      throw UsageError("'security " + verb + "' is not a security command; allowed: init, robot, operator, monitor, "
+                       "server, revoke (see locctl --help)");
+    }
+    if (cl.arguments.size() != expected) {
+      throw UsageError("'security " + verb + "' takes " + std::to_string(expected - 1) + " argument(s), got " +
+                       std::to_string(cl.arguments.size() - 1) + "; see locctl --help");
+    }
+    return cl;
+  }
   if (cl.command == "initial-pose") {
     parse_number("X", cl.arguments[1]);
     parse_number("Y", cl.arguments[2]);

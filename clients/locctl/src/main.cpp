@@ -9,6 +9,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <cerrno>
+#include <ctime>
+#include <filesystem>
 #include <deque>
 #include <fstream>
 #include <iostream>
@@ -18,6 +20,7 @@
 
 #include "command_line.hpp"
 #include "json.hpp"
+#include "security.hpp"
 #include "locd/client/client.hpp"
 #include "locd/sdk/errors.hpp"
 #include "locd/sdk/plugin_config.hpp"
@@ -361,6 +364,55 @@ int command_watch(const CommandLine& cl) {
   return 0;
 }
 
+// locctl security: the fleet's CA and identities (security.hpp), printing what was made.
+int command_security(const CommandLine& cl) {
+  namespace fs = std::filesystem;
+  const std::string& verb = cl.arguments[0];
+  const fs::path fleet = cl.arguments[1];
+  security::Validity validity;
+  try {
+    // A few minutes in the past by default: a peer whose clock lags must not find it not yet valid.
+    validity.start = cl.start ? security::parse_utc(*cl.start) : static_cast<long long>(std::time(nullptr)) - 300;
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--start: ") + e.what());
+  }
+  if (cl.days) validity.days = static_cast<int>(*cl.days);
+  const auto run = security::system_runner();
+  Json result = {{"command", "security " + verb}, {"ok", true}, {"fleet", fs::absolute(fleet).string()}};
+  std::string text;
+  if (verb == "init") {
+    security::init(fleet, validity, run);
+    text = "fleet CA in " + (fs::absolute(fleet) / "ca").string() + ", signed governance " +
+           (fs::absolute(fleet) / "governance.p7s").string() + "; keep ca/ca.key secret";
+  } else if (verb == "revoke") {
+    security::Role role;
+    try {
+      role = security::parse_role(cl.arguments[2]);
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(e.what());
+    }
+    const auto updated = security::revoke(fleet, role, cl.arguments[3], run);
+    std::vector<std::string> folders;
+    for (const auto& f : updated) folders.push_back(f.string());
+    result["updated"] = folders;
+    text = std::string(security::role_name(role)) + " '" + cl.arguments[3] + "' revoked; new CRL copied into " +
+           std::to_string(folders.size()) + " identity folder(s); give it to the servers and restart them";
+  } else {
+    const security::Role role = security::parse_role(verb);
+    const fs::path dir = security::make_identity(fleet, role, cl.arguments[2], validity, run);
+    result["identity"] = dir.string();
+    result["config"] = (dir / "cyclonedds.xml").string();
+    text = verb + " '" + cl.arguments[2] + "' in " + dir.string() + "; use it with CYCLONEDDS_URI=<network config>,file://" +
+           (dir / "cyclonedds.xml").string();
+  }
+  if (cl.json) {
+    std::cout << result.dump() << "\n";
+  } else {
+    std::cout << text << "\n";
+  }
+  return 0;
+}
+
 int run(const CommandLine& cl) {
   if (cl.command == "use") return command_use(cl);
   if (cl.command == "status") return command_status(cl);
@@ -368,6 +420,7 @@ int run(const CommandLine& cl) {
   if (cl.command == "plugins") return command_plugins(cl);
   if (cl.command == "stop") return command_stop(cl);
   if (cl.command == "initial-pose") return command_initial_pose(cl);
+  if (cl.command == "security") return command_security(cl);
   throw UsageError("unknown command '" + cl.command + "'");
 }
 
