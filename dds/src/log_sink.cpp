@@ -8,8 +8,8 @@ namespace {
 void forward(void* arg, const dds_log_data_t* data) {
   const auto* callback = static_cast<const LogSink::Callback*>(arg);
   if (!data || !data->message) return;
-  const size_t header = data->hdrsize <= data->size ? data->hdrsize : 0;
-  std::string message(data->message + header, data->size - header);
+  // `message` starts after Cyclone's header (time, domain, thread: hdrsize bytes before it).
+  std::string message(data->message, data->size);
   while (!message.empty() && (message.back() == '\n' || message.back() == ' ')) message.pop_back();
   if (message.empty()) return;
   LogLevel level = LogLevel::kInfo;

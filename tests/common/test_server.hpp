@@ -10,6 +10,7 @@
 #include <fstream>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "child_process.hpp"
 #include "test_env.hpp"
@@ -20,6 +21,7 @@ struct TestServerOptions {
   std::string map_directories;  // YAML list body; default: the tree's config/maps
   std::string extra_config;     // more lines of locd.yaml (e.g. "output_directory: maps\n")
   int queue_depth = 1000;
+  std::vector<std::string> environment;  // "NAME=value" for locd, e.g. a secure CYCLONEDDS_URI
 };
 
 class TestServer {
@@ -38,7 +40,7 @@ class TestServer {
         << options.extra_config;
     process_ = std::make_unique<ChildProcess>(binary_dir() + "/bin/locd",
                                               std::vector<std::string>{"--config", (dir_ / "locd.yaml").string()},
-                                              (dir_ / "locd.log").string());
+                                              (dir_ / "locd.log").string(), options.environment);
   }
   ~TestServer() {
     if (process_->running()) {
