@@ -350,4 +350,70 @@ TEST(Security, BadCredentialsAreRefusedNamingTheIdentityAndTheCause) {
   EXPECT_CONTAINS(log, "Permissions validity period expired for CN=lapsed,OU=robot,O=locd");
 }
 
+// Waits until locd's log holds `text`.
+::testing::AssertionResult log_shows(ChildProcess& locd, const std::string& text, std::chrono::seconds timeout = 30s) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (locd.output().find(text) == std::string::npos) {
+    if (std::chrono::steady_clock::now() > deadline || !locd.running()) {
+      return ::testing::AssertionFailure() << "'" << text << "' not in locd's log:\n" << locd.output();
+    }
+    std::this_thread::sleep_for(50ms);
+  }
+  return ::testing::AssertionSuccess();
+}
+
+// Sessions are owned (plain DDS): ids squatted by processes that went away free themselves after
+// session_grace_s, so the real robot gets its session; a robot that keeps writing keeps its
+// session; one that crashes loses it once its lease expires.
+TEST(SessionOwnership, SquattedIdsFreeThemselvesAndALiveRobotKeepsItsSession) {
+  Scratch scratch("locd_session_ownership");
+  locd::test::TestServerOptions options;
+  options.extra_config = "session_grace_s: 3\nmax_sessions: 2\n";
+  TestServer server("ownership", kDomainOwnership, options);
+  const std::string domain = std::to_string(kDomainOwnership);
+  const std::string config = locd::test::source_dir() + "/config/plugins/feature_ekf.yaml";
+  // Two processes take a session each and exit: the server is full.
+  for (const char* squatter : {"squat1", "squat2"}) {
+    const Outcome use = run(scratch.path(), "locctl", {"use", squatter, config, "--domain", domain}, as({}));
+    ASSERT_EQ(use.code, 0) << use.output;
+  }
+  const Outcome locked_out = run(scratch.path(), "locctl", {"use", "corridor_bot", config, "--domain", domain}, as({}));
+  EXPECT_EQ(locked_out.code, 1) << locked_out.output;
+  EXPECT_CONTAINS(locked_out.output, "max_sessions = 2");
+  // Their sessions end once no writer of theirs is left.
+  for (const char* squatter : {"squat1", "squat2"}) {
+    EXPECT_TRUE(log_shows(server.process(), std::string("session ended: no live writer of robot '") + squatter +
+                                                "' (session requests, initial poses, map saves, sensor data) for 3 s"));
+  }
+  const Outcome ended = run(scratch.path(), "locctl", {"status", "squat1", "--json", "--domain", domain}, as({}));
+  EXPECT_CONTAINS(ended.output, "\"state\":\"stopped\"");
+  EXPECT_CONTAINS(ended.output, "session ended: no live writer of robot 'squat1'");
+
+  // The real robot drives for longer than the grace period and keeps its session throughout.
+  ChildProcess locsim(program("locsim"),
+                      {"live", locd::test::source_dir() + "/config/scenarios/corridor.yaml", "--domain", domain,
+                       "--duration", "8", "--json", "--server-timeout", "30"},
+                      (scratch.path() / "locsim.log").string(), as({}));
+  ASSERT_EQ(locsim.wait(90s), 0) << locsim.output() << "\nserver:\n" << server.process().output();
+  EXPECT_NE(locsim.output().find("\"converged\":true"), std::string::npos) << locsim.output();
+  EXPECT_EQ(server.process().output().find("no live writer of robot 'corridor_bot'"), std::string::npos);
+  // Gone, it frees its id.
+  EXPECT_TRUE(log_shows(server.process(), "session ended: no live writer of robot 'corridor_bot'"));
+
+  // A robot that crashes: its writers die with it, noticed when its lease (1 s here) expires.
+  const fs::path short_lease = scratch.path() / "short_lease.xml";
+  write(short_lease, "<CycloneDDS><Domain id=\"any\"><Discovery><LeaseDuration>1s</LeaseDuration></Discovery>"
+                     "</Domain></CycloneDDS>");
+  std::vector<std::string> crashing = as({});
+  crashing[0] += ",file://" + short_lease.string();
+  ChildProcess robot(program("security_peer"), {domain, "crashbot", "crashbot", "odometry", "60"},
+                     (scratch.path() / "crashbot.log").string(), crashing);
+  const Outcome use = run(scratch.path(), "locctl", {"use", "crashbot", config, "--domain", domain}, as({}));
+  ASSERT_EQ(use.code, 0) << use.output;
+  std::this_thread::sleep_for(4s);  // longer than the grace period: the robot's odometry keeps it
+  EXPECT_EQ(server.process().output().find("no live writer of robot 'crashbot'"), std::string::npos);
+  robot.signal(SIGKILL);
+  EXPECT_TRUE(log_shows(server.process(), "session ended: no live writer of robot 'crashbot'"));
+}
+
 }  // namespace
