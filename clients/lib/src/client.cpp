@@ -19,6 +19,7 @@
 #include "locd/dds/topics.hpp"
 #include "locd/sdk/errors.hpp"
 #include "locd/sdk/robot_id.hpp"
+#include "locd/sdk/text.hpp"
 
 namespace locd {
 namespace {
@@ -225,7 +226,7 @@ struct Client::Impl {
     try {
       update.estimate = dds::from_wire(m);
     } catch (const std::exception& e) {
-      std::cerr << "locd client: dropped a pose on " << topics::kPose << " for robot '" << update.robot_id
+      std::cerr << "locd client: dropped a pose on " << topics::kPose << " for robot '" << escaped(update.robot_id)
                 << "': " << e.what() << "\n";
       return;
     }
@@ -246,7 +247,7 @@ struct Client::Impl {
     try {
       update.goal = dds::from_wire(m);
     } catch (const std::exception& e) {
-      std::cerr << "locd client: dropped a goal on " << topics::kExplorationGoal << " for robot '" << update.robot_id
+      std::cerr << "locd client: dropped a goal on " << topics::kExplorationGoal << " for robot '" << escaped(update.robot_id)
                 << "': " << e.what() << "\n";
       return;
     }

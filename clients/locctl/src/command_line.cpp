@@ -8,6 +8,8 @@
 #include <cstdlib>
 #include <map>
 
+#include "locd/sdk/robot_id.hpp"
+
 namespace locd::locctl {
 
 const char* const kUsage = R"(usage: locctl [options] COMMAND [ARGS]
@@ -43,8 +45,6 @@ Exit status: 0 success, 1 failure (no server, request refused, timeout), 2 usage
 )";
 
 namespace {
-
-constexpr size_t kMaxRobotIdLength = 64;  // locd.idl ROBOT_ID_MAX
 
 // Number of positional arguments each command takes: {min, max}.
 const std::map<std::string, std::pair<size_t, size_t>>& command_arity() {
@@ -183,12 +183,8 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
     parse_number("YAW", cl.arguments[3]);
   }
   if (!cl.arguments.empty() && cl.command != "plugins") {
-    const std::string& robot = cl.arguments[0];
-    if (robot.empty()) throw UsageError("ROBOT must not be empty");
-    if (robot.size() > kMaxRobotIdLength) {
-      throw UsageError("ROBOT '" + robot.substr(0, 32) + "...' is longer than " + std::to_string(kMaxRobotIdLength) +
-                       " characters");
-    }
+    // The robot id names the robot's DDS partition: the same rule as the server's (robot_id.hpp).
+    if (const std::string error = robot_id_error(cl.arguments[0]); !error.empty()) throw UsageError("ROBOT: " + error);
   }
   if (cl.command == "help") cl.help = true;
   return cl;

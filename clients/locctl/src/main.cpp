@@ -24,6 +24,7 @@
 #include "locd/client/client.hpp"
 #include "locd/sdk/errors.hpp"
 #include "locd/sdk/plugin_config.hpp"
+#include "locd/sdk/text.hpp"
 
 namespace locd::locctl {
 namespace {
@@ -113,9 +114,10 @@ int report_answer(const CommandLine& cl, const std::string& robot, const std::op
               << "\n";
   } else {
     std::ostream& out = answer->request_ok ? std::cout : std::cerr;
-    out << robot << ": " << (answer->request_ok ? "ok" : "refused") << " by server " << answer->server_id
-        << " (state " << answer->state << (answer->plugin.empty() ? "" : ", plugin " + answer->plugin) << "): "
-        << answer->message << "\n";
+    // Text from the network is escaped on a terminal too (JSON output escapes it anyway).
+    out << robot << ": " << (answer->request_ok ? "ok" : "refused") << " by server " << escaped(answer->server_id)
+        << " (state " << answer->state << (answer->plugin.empty() ? "" : ", plugin " + escaped(answer->plugin))
+        << "): " << escaped(answer->message, 4096) << "\n";
   }
   return answer->request_ok ? 0 : kExitFailure;
 }
@@ -244,10 +246,10 @@ int command_status(const CommandLine& cl) {
   for (const auto& s : statuses) {
     char last_ms[32];
     std::snprintf(last_ms, sizeof(last_ms), "%.3f", s.last_update_ms);
-    rows.push_back({s.robot_id, s.state, s.plugin.empty() ? "-" : s.plugin, s.server_id, std::to_string(s.received),
-                    std::to_string(s.used), std::to_string(s.dropped), std::to_string(s.rejected),
-                    std::to_string(s.updates), last_ms, s.localization, std::to_string(s.failures),
-                    s.last_error.empty() ? "-" : s.last_error});
+    rows.push_back({escaped(s.robot_id), s.state, s.plugin.empty() ? "-" : escaped(s.plugin), escaped(s.server_id),
+                    std::to_string(s.received), std::to_string(s.used), std::to_string(s.dropped),
+                    std::to_string(s.rejected), std::to_string(s.updates), last_ms, s.localization,
+                    std::to_string(s.failures), s.last_error.empty() ? "-" : escaped(s.last_error, 4096)});
   }
   std::vector<size_t> widths(header.size(), 0);
   for (const auto& row : rows) {
@@ -356,7 +358,7 @@ int command_watch(const CommandLine& cl) {
       char line[256];
       std::snprintf(line, sizeof(line), "%s x=%.3f y=%.3f yaw=%.2fdeg std_x=%.3f std_y=%.3f plugin=%s update=%.3fms",
                     stamp_text(p.estimate.header.stamp_ns).c_str(), T.translation().x(), T.translation().y(), yaw_deg,
-                    std_x, std_y, p.plugin.c_str(), p.update_ms);
+                    std_x, std_y, escaped(p.plugin).c_str(), p.update_ms);
       std::cout << line << std::endl;
     }
     ++printed;
