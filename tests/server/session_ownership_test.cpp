@@ -122,4 +122,18 @@ TEST(DdsLogForwarder, TheSameLineIsLoggedOncePerPeriodThenSaysHowManyWereLeftOut
   EXPECT_EQ(lines, 3u) << out;
 }
 
+TEST(DdsLogForwarder, AFloodOfDifferentLinesIsCutToTheRateAndCounted) {
+  Logger logger;
+  DdsLogForwarder forwarder(logger);
+  testing::internal::CaptureStderr();
+  for (int i = 0; i < 100; ++i) forwarder.forward(dds::LogLevel::kWarning, "peer " + std::to_string(i) + " refused");
+  std::this_thread::sleep_for(1100ms);
+  forwarder.forward(dds::LogLevel::kWarning, "after the flood");
+  const std::string out = testing::internal::GetCapturedStderr();
+  size_t lines = 0;
+  for (char c : out) lines += c == '\n';
+  EXPECT_EQ(lines, static_cast<size_t>(DdsLogForwarder::kMaxLinesPerSecond) + 1) << out;
+  EXPECT_NE(out.find("after the flood (80 other DDS lines left out: more than 20 a second)"), std::string::npos) << out;
+}
+
 }  // namespace
