@@ -28,7 +28,7 @@ Commands:
   security operator FLEET NAME   permissions and cyclonedds.xml (DDS Security config). A robot
   security monitor FLEET NAME    feeds and steers only itself, an operator steers any robot, a
   security server FLEET NAME     monitor only reads, a server serves
-                               [--days N (default 365)] [--start 2026-11-25T10:00:00Z (default now)]
+                               [--days N (default 365)] [--start 2026-11-25T10:00:00Z (default 5 min ago)]
   security revoke FLEET ROLE NAME  revoke an identity; copies the new CRL into FLEET's identities
 
 Options:
