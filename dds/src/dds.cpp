@@ -7,6 +7,10 @@ namespace locd::dds {
 Error::Error(const std::string& what, dds_return_t code) : std::runtime_error(what), code_(code) {}
 
 dds_return_t check(dds_return_t rc, const char* what) {
+  if (rc == DDS_RETCODE_NOT_ALLOWED_BY_SECURITY) {
+    throw Error(std::string(what) + ": not allowed by DDS Security: this participant's signed permissions do not grant it",
+                rc);
+  }
   if (rc < 0) throw Error(std::string(what) + ": " + dds_strretcode(rc), rc);
   return rc;
 }
@@ -26,6 +30,9 @@ std::unique_ptr<dds_qos_t, QosDeleter> make_qos(QosProfile profile, int depth) {
   dds_qset_reliability(qos.get(), DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
   const dds_data_representation_id_t xcdr1[] = {DDS_DATA_REPRESENTATION_XCDR1};
   dds_qset_data_representation(qos.get(), 1, xcdr1);
+  // A writer going away unregisters its instances without disposing them: a reader then sees
+  // NOT_ALIVE_NO_WRITERS only once the last writer of an instance is gone (session ownership).
+  dds_qset_writer_data_lifecycle(qos.get(), false);
   switch (profile) {
     case QosProfile::kSensor:
       dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, depth);
@@ -76,6 +83,12 @@ Entity subscriber_for(const Participant& p, const Partitions& partitions) {
   if (partitions.empty()) return Entity();
   auto qos = partition_qos(partitions);
   return Entity(check(dds_create_subscriber(p.handle(), qos.get(), nullptr), "create subscriber"));
+}
+
+std::string endpoint_text(const std::string& topic, const Partitions& partitions) {
+  std::string names;
+  for (const auto& p : partitions) names += (names.empty() ? "" : ", ") + p;
+  return topic + " in partition " + (partitions.empty() ? std::string("(default)") : "[" + names + "]");
 }
 
 Partitions writer_partitions(dds_entity_t reader, dds_instance_handle_t publication) {

@@ -127,20 +127,30 @@ std::shared_ptr<DdsBridge::RobotWriters> DdsBridge::writers_for(const std::strin
 
 namespace {
 
+// The robot's inputs, numbered for RobotWriterPresence.
+enum Input : unsigned {
+  kOdometryInput, kImuInput, kScanInput, kCloudInput, kImageInput, kDetectionsInput,
+  kSessionRequestInput, kInitialPoseInput, kMapSaveRequestInput,
+};
+
 // Every per-robot reader of the server: in every robot's partition, robot scoped. A sample from a
 // writer outside its robot's partition is refused and reported to the writer's own robot, if the
 // writer has one; a robot id that is not allowed is refused before anything is kept for it.
+// Samples from the robot's own partition mark the robot present on `input`; its instance losing
+// every writer marks it absent there (session ownership: Server::on_robot_writers).
 template <typename Wire, typename Handle>
-dds::Reader<Wire> robot_reader(const dds::Participant& participant, const char* topic, dds::QosProfile profile,
-                               Server& server, Handle&& handle, int depth = 8) {
+dds::Reader<Wire> robot_reader(const dds::Participant& participant, const char* topic, Input input,
+                               dds::QosProfile profile, Server& server, RobotWriterPresence& presence, Handle&& handle,
+                               int depth = 8) {
   return dds::Reader<Wire>(
       participant, topic, profile,
-      [&server, topic, handle = std::forward<Handle>(handle)](const Wire& sample) {
+      [&server, &presence, topic, input, handle = std::forward<Handle>(handle)](const Wire& sample) {
         const std::string robot_id = dds::to_string(sample.robot_id);
         if (std::string error = robot_id_error(robot_id); !error.empty()) {
           server.on_invalid_robot_id(topic, error);
           return;
         }
+        if (const auto changed = presence.update(robot_id, input, true)) server.on_robot_writers(robot_id, *changed);
         handle(robot_id, sample);
       },
       depth, {topics::kAllRobotsPartition},
@@ -161,14 +171,19 @@ dds::Reader<Wire> robot_reader(const dds::Participant& participant, const char* 
         } else {
           server.on_invalid_robot_id(topic, error);
         }
+      },
+      [&server, &presence, input](const Wire& key, dds::InstanceGone) {
+        const std::string robot_id = dds::to_string(key.robot_id);
+        if (!robot_id_error(robot_id).empty()) return;
+        if (const auto changed = presence.update(robot_id, input, false)) server.on_robot_writers(robot_id, *changed);
       });
 }
 
 template <typename Wire>
-dds::Reader<Wire> sensor_reader(const dds::Participant& participant, const char* topic, Server& server,
-                                const Limits& limits) {
+dds::Reader<Wire> sensor_reader(const dds::Participant& participant, const char* topic, Input input, Server& server,
+                                RobotWriterPresence& presence, const Limits& limits) {
   return robot_reader<Wire>(
-      participant, topic, dds::QosProfile::kSensor, server,
+      participant, topic, input, dds::QosProfile::kSensor, server, presence,
       [&server, &limits, topic](const std::string& robot_id, const Wire& sample) {
         try {
           server.on_measurement(robot_id, Measurement(convert(sample, limits)));
@@ -183,15 +198,17 @@ dds::Reader<Wire> sensor_reader(const dds::Participant& participant, const char*
 
 void DdsBridge::connect(Server& server) {
   auto readers = std::make_unique<Readers>();
-  readers->odometry = sensor_reader<locd_msg_Odometry>(participant_, topics::kOdometry, server, limits_);
-  readers->imu = sensor_reader<locd_msg_Imu>(participant_, topics::kImu, server, limits_);
-  readers->scan = sensor_reader<locd_msg_LaserScan>(participant_, topics::kScan, server, limits_);
-  readers->cloud = sensor_reader<locd_msg_PointCloud>(participant_, topics::kCloud, server, limits_);
-  readers->image = sensor_reader<locd_msg_Image>(participant_, topics::kImage, server, limits_);
-  readers->detections = sensor_reader<locd_msg_LandmarkDetections>(participant_, topics::kDetections, server, limits_);
+  auto& p = participant_;
+  readers->odometry = sensor_reader<locd_msg_Odometry>(p, topics::kOdometry, kOdometryInput, server, presence_, limits_);
+  readers->imu = sensor_reader<locd_msg_Imu>(p, topics::kImu, kImuInput, server, presence_, limits_);
+  readers->scan = sensor_reader<locd_msg_LaserScan>(p, topics::kScan, kScanInput, server, presence_, limits_);
+  readers->cloud = sensor_reader<locd_msg_PointCloud>(p, topics::kCloud, kCloudInput, server, presence_, limits_);
+  readers->image = sensor_reader<locd_msg_Image>(p, topics::kImage, kImageInput, server, presence_, limits_);
+  readers->detections =
+      sensor_reader<locd_msg_LandmarkDetections>(p, topics::kDetections, kDetectionsInput, server, presence_, limits_);
   Logger* logger = &logger_;
   readers->session_request = robot_reader<locd_msg_SessionRequest>(
-      participant_, topics::kSessionRequest, dds::QosProfile::kState, server,
+      participant_, topics::kSessionRequest, kSessionRequestInput, dds::QosProfile::kState, server, presence_,
       [&server, logger](const std::string& robot_id, const locd_msg_SessionRequest& sample) {
         SessionRequestMessage request;
         request.robot_id = robot_id;
@@ -206,7 +223,7 @@ void DdsBridge::connect(Server& server) {
         }
       });
   readers->initial_pose = robot_reader<locd_msg_InitialPose>(
-      participant_, topics::kInitialPose, dds::QosProfile::kState, server,
+      participant_, topics::kInitialPose, kInitialPoseInput, dds::QosProfile::kState, server, presence_,
       [&server](const std::string& robot_id, const locd_msg_InitialPose& sample) {
         try {
           server.on_initial_pose(robot_id, dds::from_wire(sample));
@@ -215,7 +232,7 @@ void DdsBridge::connect(Server& server) {
         }
       });
   readers->map_save_request = robot_reader<locd_msg_MapSaveRequest>(
-      participant_, topics::kMapSaveRequest, dds::QosProfile::kSensor, server,
+      participant_, topics::kMapSaveRequest, kMapSaveRequestInput, dds::QosProfile::kSensor, server, presence_,
       [&server](const std::string& robot_id, const locd_msg_MapSaveRequest& sample) {
         server.on_map_save_request(robot_id, sample.request_id);
       });

@@ -16,6 +16,7 @@
 #include "locd/dds/dds.hpp"
 #include "locd/sdk/plugin_loader.hpp"
 #include "locd/server/dds_bridge.hpp"
+#include "locd/server/dds_log.hpp"
 #include "locd/server/log.hpp"
 #include "locd/server/server.hpp"
 #include "locd/server/server_config.hpp"
@@ -202,6 +203,7 @@ int run(const Options& o) {
   }
   for (const auto& rejected : catalog.rejected()) logger.log(LogLevel::kWarning, "server", "plugin refused: " + rejected);
 
+  const DdsLogForwarder dds_log(logger);  // Cyclone's own errors (refused peers, certificates) into this log
   try {
     DdsBridge bridge(config.domain_id, config.server_id, config.limits, logger, config.max_sessions + kUnservedRobotsWithWriters);
     Server server(config, catalog, bridge, logger);
@@ -229,6 +231,7 @@ int run(const Options& o) {
         server.publish_all_status();
         server.save_state();
       }
+      server.end_ownerless_sessions();
     }
     logger.log(LogLevel::kInfo, "server", "shutting down: stopping readers, then workers");
     bridge.disconnect();

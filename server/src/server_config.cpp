@@ -154,8 +154,8 @@ ServerConfig ServerConfig::parse(const std::string& yaml_text, const std::string
                                  const fs::path& base_directory) {
   const Params root = Params::parse(yaml_text, source_name);
   root.expect_only({"server_id", "domain_id", "plugin_directories", "map_directories", "output_directory", "workers",
-                    "queue_depth", "max_sessions", "status_period_s", "limits", "log_level", "sessions",
-                    "plugin_workers", "state_directory"});
+                    "queue_depth", "max_sessions", "status_period_s", "session_grace_s", "limits", "log_level",
+                    "sessions", "plugin_workers", "state_directory"});
   ServerConfig c;
   c.server_id = root.text("server_id", default_server_id());
   if (c.server_id.empty() || c.server_id.size() > 64) {
@@ -174,6 +174,7 @@ ServerConfig ServerConfig::parse(const std::string& yaml_text, const std::string
   c.queue_depth = static_cast<int>(root.integer("queue_depth", 64, 1, 10000));
   c.max_sessions = static_cast<size_t>(root.integer("max_sessions", 256, 1, 100000));
   c.status_period_s = root.number("status_period_s", 1.0, Range::closed(0.05, 3600.0));
+  c.session_grace_s = root.number("session_grace_s", c.session_grace_s, Range::closed(0.1, 86400.0));
   c.log_level = parse_log_level(root.text("log_level", "info", {"debug", "info", "warning", "error"}));
 
   if (root.has("state_directory")) {

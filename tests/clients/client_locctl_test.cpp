@@ -139,7 +139,9 @@ TEST(Locctl, ArgumentErrorsExitWithStatusTwoAndSayWhatIsWrong) {
       {{"--domain", domain, "initial-pose", "robot1", "1", "north", "0"}, "Y = 'north' is not a finite number"},
       {{"--domain", domain, "status", "--count", "3"}, "--count applies to 'watch' only"},
       {{"--domain", domain, "watch", "robot1", "--count", "0"}, "--count = '0' is not an integer in [1, 1000000000]"},
-      {{"--domain", domain, "stop", std::string(65, 'r')}, "is longer than 64 characters"},
+      {{"--domain", domain, "stop", std::string(65, 'r')}, "is 65 characters; allowed: 1-64 characters of [A-Za-z0-9_.-]"},
+      {{"--domain", domain, "stop", "robot\n1"}, "ROBOT: robot_id 'robot\\n1' contains '\\n'"},
+      {{"--domain", domain, "watch", "robot.*"}, "contains '*'"},
   };
   for (const auto& c : cases) {
     const LocctlRun run = locctl(dir, c.args);

@@ -22,8 +22,10 @@ namespace locd::test {
 
 class ChildProcess {
  public:
-  // Starts `program` with `args`; stdout and stderr go to `log_file`.
-  ChildProcess(const std::string& program, const std::vector<std::string>& args, std::string log_file)
+  // Starts `program` with `args`; stdout and stderr go to `log_file`. `environment` ("NAME=value")
+  // adds to or overrides this process's environment (e.g. another CYCLONEDDS_URI).
+  ChildProcess(const std::string& program, const std::vector<std::string>& args, std::string log_file,
+               const std::vector<std::string>& environment = {})
       : log_file_(std::move(log_file)) {
     std::vector<std::string> argv_store{program};
     argv_store.insert(argv_store.end(), args.begin(), args.end());
@@ -34,7 +36,18 @@ class ChildProcess {
     posix_spawn_file_actions_init(&actions);
     posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log_file_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
-    const int rc = posix_spawn(&pid_, program.c_str(), &actions, nullptr, argv.data(), environ);
+    std::vector<std::string> env_store = environment;
+    for (char** e = environ; *e; ++e) {
+      const std::string entry = *e;
+      const std::string name = entry.substr(0, entry.find('='));
+      bool overridden = false;
+      for (const auto& o : environment) overridden = overridden || o.compare(0, name.size() + 1, name + "=") == 0;
+      if (!overridden) env_store.push_back(entry);
+    }
+    std::vector<char*> envp;
+    for (auto& e : env_store) envp.push_back(e.data());
+    envp.push_back(nullptr);
+    const int rc = posix_spawn(&pid_, program.c_str(), &actions, nullptr, argv.data(), envp.data());
     posix_spawn_file_actions_destroy(&actions);
     if (rc != 0) throw std::runtime_error("cannot start " + program + ": " + std::to_string(rc));
   }

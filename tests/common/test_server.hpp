@@ -10,6 +10,7 @@
 #include <fstream>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "child_process.hpp"
 #include "test_env.hpp"
@@ -21,6 +22,7 @@ struct TestServerOptions {
   std::string extra_config;     // more lines of locd.yaml (e.g. "output_directory: maps\n")
   int queue_depth = 1000;
   std::string extra_plugin_directory;  // besides the tree's plugins (e.g. the broken plugins)
+  std::vector<std::string> environment;  // "NAME=value" for locd, e.g. a secure CYCLONEDDS_URI
 };
 
 class TestServer {
@@ -38,13 +40,13 @@ class TestServer {
         << "status_period_s: 0.2\n"
         << "queue_depth: " << options.queue_depth << "\n"
         << options.extra_config;
-    start();
+    start(options.environment);
   }
   // Starts locd again on the same config (after the last one ended); its log goes to
   // locd.<n>.log, n counting the restarts.
   void restart() {
     ++starts_;
-    start();
+    start(environment_);
   }
   ~TestServer() {
     if (process_->running()) {
@@ -61,15 +63,17 @@ class TestServer {
   ChildProcess& process() { return *process_; }
 
  private:
-  void start() {
+  void start(const std::vector<std::string>& environment) {
+    environment_ = environment;
     const std::string log = starts_ == 0 ? "locd.log" : "locd." + std::to_string(starts_) + ".log";
     process_ = std::make_unique<ChildProcess>(binary_dir() + "/bin/locd",
                                               std::vector<std::string>{"--config", (dir_ / "locd.yaml").string()},
-                                              (dir_ / log).string());
+                                              (dir_ / log).string(), environment);
   }
 
   std::filesystem::path dir_;
   int starts_ = 0;
+  std::vector<std::string> environment_;
   std::unique_ptr<ChildProcess> process_;
 };
 

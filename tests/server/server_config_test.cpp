@@ -34,6 +34,7 @@ TEST(ServerConfig, DefaultsForAnEmptyConfig) {
   EXPECT_EQ(c.workers, 2);
   EXPECT_EQ(c.queue_depth, 64);
   EXPECT_DOUBLE_EQ(c.status_period_s, 1.0);
+  EXPECT_DOUBLE_EQ(c.session_grace_s, 10.0);
   EXPECT_EQ(c.limits.max_scan_beams, locd::Limits{}.max_scan_beams);
   EXPECT_EQ(c.log_level, locd::LogLevel::kInfo);
   EXPECT_FALSE(c.server_id.empty());
@@ -81,6 +82,8 @@ TEST(ServerConfig, EachBadValueNamesKeyAndAllowedRange) {
   expect_error("queue_depth: 10001", {"'queue_depth'", "allowed: [1, 10000]"});
   expect_error("queue_depth: many", {"'queue_depth'", "'many' is not an integer", "[1, 10000]"});
   expect_error("status_period_s: 0", {"'status_period_s'", "allowed: [0.05, 3600]"});
+  expect_error("session_grace_s: 0", {"'session_grace_s'", "allowed: [0.1, 86400]"});
+  EXPECT_DOUBLE_EQ(ServerConfig::parse("session_grace_s: 2.5", "t.yaml", kBase).session_grace_s, 2.5);
   expect_error("log_level: loud", {"'log_level'", "'loud'", "allowed: debug, info, warning, error"});
   expect_error("limits: {max_scan_beams: 0}", {"'limits.max_scan_beams'", "allowed: [1, 65536]"});
   expect_error("limits: {max_scan_beams: 70000}", {"'limits.max_scan_beams'", "70000", "allowed: [1, 65536]"});

@@ -19,6 +19,7 @@
 #include "locd/dds/topics.hpp"
 #include "locd/sdk/errors.hpp"
 #include "locd/sdk/robot_id.hpp"
+#include "locd/sdk/text.hpp"
 
 namespace locd {
 namespace {
@@ -163,16 +164,16 @@ struct Client::Impl {
   explicit Impl(const ClientOptions& o)
       : options(checked(o)),
         participant(static_cast<dds_domainid_t>(o.domain_id)),
-        odometry(participant, topics::kOdometry, dds::QosProfile::kSensor, o.sensor_depth, own_partition(o)),
-        imu(participant, topics::kImu, dds::QosProfile::kSensor, o.sensor_depth, own_partition(o)),
-        scan(participant, topics::kScan, dds::QosProfile::kSensor, o.sensor_depth, own_partition(o)),
-        cloud(participant, topics::kCloud, dds::QosProfile::kSensor, o.sensor_depth, own_partition(o)),
-        image(participant, topics::kImage, dds::QosProfile::kSensor, o.sensor_depth, own_partition(o)),
-        detections(participant, topics::kDetections, dds::QosProfile::kSensor, o.sensor_depth, own_partition(o)),
-        ground_truth(participant, topics::kGroundTruth, dds::QosProfile::kSensor, o.sensor_depth, own_partition(o)),
-        session_request(participant, topics::kSessionRequest, dds::QosProfile::kState, 8, own_partition(o)),
-        initial_pose(participant, topics::kInitialPose, dds::QosProfile::kState, 8, own_partition(o)),
-        map_save_request(participant, topics::kMapSaveRequest, dds::QosProfile::kSensor, 8, own_partition(o)) {
+        odometry(writer<locd_msg_Odometry>(topics::kOdometry, dds::QosProfile::kSensor, o.sensor_depth)),
+        imu(writer<locd_msg_Imu>(topics::kImu, dds::QosProfile::kSensor, o.sensor_depth)),
+        scan(writer<locd_msg_LaserScan>(topics::kScan, dds::QosProfile::kSensor, o.sensor_depth)),
+        cloud(writer<locd_msg_PointCloud>(topics::kCloud, dds::QosProfile::kSensor, o.sensor_depth)),
+        image(writer<locd_msg_Image>(topics::kImage, dds::QosProfile::kSensor, o.sensor_depth)),
+        detections(writer<locd_msg_LandmarkDetections>(topics::kDetections, dds::QosProfile::kSensor, o.sensor_depth)),
+        ground_truth(writer<locd_msg_PoseEstimate>(topics::kGroundTruth, dds::QosProfile::kSensor, o.sensor_depth)),
+        session_request(writer<locd_msg_SessionRequest>(topics::kSessionRequest, dds::QosProfile::kState, 8)),
+        initial_pose(writer<locd_msg_InitialPose>(topics::kInitialPose, dds::QosProfile::kState, 8)),
+        map_save_request(writer<locd_msg_MapSaveRequest>(topics::kMapSaveRequest, dds::QosProfile::kSensor, 8)) {
     // Readers last: their listeners call into the state above as soon as they exist.
     const dds::Partitions watched = watched_partitions(o);
     pose_reader = dds::Reader<locd_msg_PoseEstimate>(
@@ -196,7 +197,16 @@ struct Client::Impl {
     pose_reader = {};
   }
 
+  // A writer in the robot's partition; with DDS Security, absent where this identity may not
+  // publish (an operator steers but does not feed, a monitor only reads): using it then throws
+  // the refusal naming topic and partition.
+  template <typename T>
+  dds::Writer<T> writer(const char* topic, dds::QosProfile profile, int depth) const {
+    return dds::Writer<T>::where_permitted(participant, topic, profile, depth, own_partition(options));
+  }
+
   void note_written(dds_entity_t writer) {
+    if (writer <= 0) return;  // absent (refused by DDS Security): its write throws
     std::lock_guard<std::mutex> lock(mutex);
     written_writers.insert(writer);
   }
@@ -216,7 +226,7 @@ struct Client::Impl {
     try {
       update.estimate = dds::from_wire(m);
     } catch (const std::exception& e) {
-      std::cerr << "locd client: dropped a pose on " << topics::kPose << " for robot '" << update.robot_id
+      std::cerr << "locd client: dropped a pose on " << topics::kPose << " for robot '" << escaped(update.robot_id)
                 << "': " << e.what() << "\n";
       return;
     }
@@ -237,7 +247,7 @@ struct Client::Impl {
     try {
       update.goal = dds::from_wire(m);
     } catch (const std::exception& e) {
-      std::cerr << "locd client: dropped a goal on " << topics::kExplorationGoal << " for robot '" << update.robot_id
+      std::cerr << "locd client: dropped a goal on " << topics::kExplorationGoal << " for robot '" << escaped(update.robot_id)
                 << "': " << e.what() << "\n";
       return;
     }

@@ -8,6 +8,8 @@
 #include <cstdlib>
 #include <map>
 
+#include "locd/sdk/robot_id.hpp"
+
 namespace locd::locctl {
 
 const char* const kUsage = R"(usage: locctl [options] COMMAND [ARGS]
@@ -24,6 +26,13 @@ Commands:
   record OUT.mcap [ROBOT...]   record every locd topic of those robots (default: every robot),
                                sensors included, into MCAP until Ctrl-C or --duration S
                                [--compression zstd|lz4|none (default zstd)]
+  security init FLEET          make the fleet's CA and signed governance in folder FLEET
+  security robot FLEET ROBOT   make an identity in FLEET/<role>/<name>: key, certificate, signed
+  security operator FLEET NAME   permissions and cyclonedds.xml (DDS Security config). A robot
+  security monitor FLEET NAME    feeds and steers only itself, an operator steers any robot, a
+  security server FLEET NAME     monitor only reads, a server serves
+                               [--days N (default 365)] [--start 2026-11-25T10:00:00Z (default 5 min ago)]
+  security revoke FLEET ROLE NAME  revoke an identity; copies the new CRL into FLEET's identities
 
 Options:
   --domain N     DDS domain id 0..232 (default: env LOCD_DOMAIN, else 0)
@@ -40,13 +49,12 @@ Exit status: 0 success, 1 failure (no server, request refused, timeout), 2 usage
 
 namespace {
 
-constexpr size_t kMaxRobotIdLength = 64;  // locd.idl ROBOT_ID_MAX
-
 // Number of positional arguments each command takes: {min, max}.
 const std::map<std::string, std::pair<size_t, size_t>>& command_arity() {
   static const std::map<std::string, std::pair<size_t, size_t>> arity = {
       {"use", {2, 2}},   {"status", {0, 1}}, {"watch", {1, 1}},        {"plugins", {0, 0}},
       {"stop", {1, 1}},  {"help", {0, 0}},   {"initial-pose", {4, 4}}, {"record", {1, 1001}},
+      {"security", {2, 4}},
   };
   return arity;
 }
@@ -58,6 +66,7 @@ const char* arguments_of(const std::string& command) {
   if (command == "stop") return "ROBOT";
   if (command == "initial-pose") return "ROBOT X Y YAW";
   if (command == "record") return "OUT.mcap [ROBOT...] (at most 1000 robots)";
+  if (command == "security") return "init FLEET | robot|operator|monitor|server FLEET NAME | revoke FLEET ROLE NAME";
   return "no arguments";
 }
 
@@ -93,7 +102,7 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
   app.set_help_flag();
   app.allow_extras();
   std::vector<std::string> words;
-  std::string domain, timeout, count, std_xy, std_yaw, duration, compression;
+  std::string domain, timeout, count, std_xy, std_yaw, duration, compression, days, start;
   app.add_option("words", words);
   app.add_flag("--help,-h", cl.help);
   app.add_flag("--json", cl.json);
@@ -104,10 +113,12 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
   app.add_option("--std-yaw", std_yaw);
   app.add_option("--duration", duration);
   app.add_option("--compression", compression);
+  app.add_option("--days", days);
+  app.add_option("--start", start);
   for (size_t i = 0; i < args.size(); ++i) {
     const bool takes_value = args[i] == "--domain" || args[i] == "--timeout" || args[i] == "--count" ||
-                             args[i] == "--std-xy" || args[i] == "--std-yaw" ||
-                             args[i] == "--duration" || args[i] == "--compression";
+                             args[i] == "--std-xy" || args[i] == "--std-yaw" || args[i] == "--duration" ||
+                             args[i] == "--compression" || args[i] == "--days" || args[i] == "--start";
     if (takes_value && i + 1 == args.size()) throw UsageError("option " + args[i] + " needs a value");
   }
   std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them last first
@@ -146,19 +157,21 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
     }
     cl.compression = compression;
   }
+  if (!days.empty()) cl.days = parse_integer("--days", days, 1, 36500);
+  if (!start.empty()) cl.start = start;
   if (words.empty()) {
     if (cl.help) {
       cl.command = "help";
       return cl;
     }
-    throw UsageError("no command given; commands: use, status, watch, plugins, stop, initial-pose, record (see locctl --help)");
+    throw UsageError("no command given; commands: use, status, watch, plugins, stop, initial-pose, record, security (see locctl --help)");
   }
   cl.command = words.front();
   cl.arguments.assign(words.begin() + 1, words.end());
   const auto arity = command_arity().find(cl.command);
   if (arity == command_arity().end()) {
     throw UsageError("unknown command '" + cl.command +
-                     "'; commands: use, status, watch, plugins, stop, initial-pose, record (see locctl --help)");
+                     "'; commands: use, status, watch, plugins, stop, initial-pose, record, security (see locctl --help)");
   }
   if (cl.help) return cl;
   const auto [min_args, max_args] = arity->second;
@@ -170,18 +183,29 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
   if ((!duration.empty() || !compression.empty()) && cl.command != "record") {
     throw UsageError("--duration and --compression apply to 'record' only");
   }
+  if ((cl.days || cl.start) && cl.command != "security") throw UsageError("--days and --start apply to 'security' only");
+  if (cl.command == "security") {
+    const std::string& verb = cl.arguments[0];
+    const size_t expected = verb == "init" ? 2 : verb == "revoke" ? 4 : 3;
+    if (verb != "init" && verb != "revoke" && verb != "robot" && verb != "operator" && verb != "monitor" &&
+        verb != "server") {
+      throw UsageError("'security " + verb + "' is not a security command; allowed: init, robot, operator, monitor, "
+                       "server, revoke (see locctl --help)");
+    }
+    if (cl.arguments.size() != expected) {
+      throw UsageError("'security " + verb + "' takes " + std::to_string(expected - 1) + " argument(s), got " +
+                       std::to_string(cl.arguments.size() - 1) + "; see locctl --help");
+    }
+    return cl;
+  }
   if (cl.command == "initial-pose") {
     parse_number("X", cl.arguments[1]);
     parse_number("Y", cl.arguments[2]);
     parse_number("YAW", cl.arguments[3]);
   }
   if (!cl.arguments.empty() && cl.command != "plugins" && cl.command != "record") {
-    const std::string& robot = cl.arguments[0];
-    if (robot.empty()) throw UsageError("ROBOT must not be empty");
-    if (robot.size() > kMaxRobotIdLength) {
-      throw UsageError("ROBOT '" + robot.substr(0, 32) + "...' is longer than " + std::to_string(kMaxRobotIdLength) +
-                       " characters");
-    }
+    // The robot id names the robot's DDS partition: the same rule as the server's (robot_id.hpp).
+    if (const std::string error = robot_id_error(cl.arguments[0]); !error.empty()) throw UsageError("ROBOT: " + error);
   }
   if (cl.command == "help") cl.help = true;
   return cl;

@@ -15,7 +15,7 @@ class UsageError : public std::runtime_error {
 };
 
 struct CommandLine {
-  std::string command;                 // use, status, watch, plugins, stop, initial-pose, record, help
+  std::string command;                 // use, status, watch, plugins, stop, initial-pose, record, security, help
   std::vector<std::string> arguments;  // positional arguments after the command
   unsigned domain = 0;                 // --domain, else env LOCD_DOMAIN, else 0
   std::optional<double> timeout_s;     // --timeout
@@ -26,6 +26,8 @@ struct CommandLine {
   double std_yaw = 0.2;                // --std-yaw (initial-pose), rad
   std::optional<double> duration_s;    // --duration (record): stop after S seconds
   std::string compression = "zstd";    // --compression (record): zstd, lz4, none
+  std::optional<long> days;            // --days (security): validity of what is made
+  std::optional<std::string> start;    // --start (security): when it becomes valid, UTC
 };
 
 // Parses argv (options may come before or after the command). `domain_env` is the value of

@@ -9,6 +9,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <cerrno>
+#include <ctime>
+#include <filesystem>
 #include <deque>
 #include <fstream>
 #include <iostream>
@@ -19,9 +21,11 @@
 #include "command_line.hpp"
 #include "json.hpp"
 #include "record.hpp"
+#include "security.hpp"
 #include "locd/client/client.hpp"
 #include "locd/sdk/errors.hpp"
 #include "locd/sdk/plugin_config.hpp"
+#include "locd/sdk/text.hpp"
 
 namespace locd::locctl {
 namespace {
@@ -111,9 +115,10 @@ int report_answer(const CommandLine& cl, const std::string& robot, const std::op
               << "\n";
   } else {
     std::ostream& out = answer->request_ok ? std::cout : std::cerr;
-    out << robot << ": " << (answer->request_ok ? "ok" : "refused") << " by server " << answer->server_id
-        << " (state " << answer->state << (answer->plugin.empty() ? "" : ", plugin " + answer->plugin) << "): "
-        << answer->message << "\n";
+    // Text from the network is escaped on a terminal too (JSON output escapes it anyway).
+    out << robot << ": " << (answer->request_ok ? "ok" : "refused") << " by server " << escaped(answer->server_id)
+        << " (state " << answer->state << (answer->plugin.empty() ? "" : ", plugin " + escaped(answer->plugin))
+        << "): " << escaped(answer->message, 4096) << "\n";
   }
   return answer->request_ok ? 0 : kExitFailure;
 }
@@ -242,10 +247,10 @@ int command_status(const CommandLine& cl) {
   for (const auto& s : statuses) {
     char last_ms[32];
     std::snprintf(last_ms, sizeof(last_ms), "%.3f", s.last_update_ms);
-    rows.push_back({s.robot_id, s.state, s.plugin.empty() ? "-" : s.plugin, s.server_id, std::to_string(s.received),
-                    std::to_string(s.used), std::to_string(s.dropped), std::to_string(s.rejected),
-                    std::to_string(s.updates), last_ms, s.localization, std::to_string(s.failures),
-                    s.last_error.empty() ? "-" : s.last_error});
+    rows.push_back({escaped(s.robot_id), s.state, s.plugin.empty() ? "-" : escaped(s.plugin), escaped(s.server_id),
+                    std::to_string(s.received), std::to_string(s.used), std::to_string(s.dropped),
+                    std::to_string(s.rejected), std::to_string(s.updates), last_ms, s.localization,
+                    std::to_string(s.failures), s.last_error.empty() ? "-" : escaped(s.last_error, 4096)});
   }
   std::vector<size_t> widths(header.size(), 0);
   for (const auto& row : rows) {
@@ -354,10 +359,59 @@ int command_watch(const CommandLine& cl) {
       char line[256];
       std::snprintf(line, sizeof(line), "%s x=%.3f y=%.3f yaw=%.2fdeg std_x=%.3f std_y=%.3f plugin=%s update=%.3fms",
                     stamp_text(p.estimate.header.stamp_ns).c_str(), T.translation().x(), T.translation().y(), yaw_deg,
-                    std_x, std_y, p.plugin.c_str(), p.update_ms);
+                    std_x, std_y, escaped(p.plugin).c_str(), p.update_ms);
       std::cout << line << std::endl;
     }
     ++printed;
+  }
+  return 0;
+}
+
+// locctl security: the fleet's CA and identities (security.hpp), printing what was made.
+int command_security(const CommandLine& cl) {
+  namespace fs = std::filesystem;
+  const std::string& verb = cl.arguments[0];
+  const fs::path fleet = cl.arguments[1];
+  security::Validity validity;
+  try {
+    // A few minutes in the past by default: a peer whose clock lags must not find it not yet valid.
+    validity.start = cl.start ? security::parse_utc(*cl.start) : static_cast<long long>(std::time(nullptr)) - 300;
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--start: ") + e.what());
+  }
+  if (cl.days) validity.days = static_cast<int>(*cl.days);
+  const auto run = security::system_runner();
+  Json result = {{"command", "security " + verb}, {"ok", true}, {"fleet", fs::absolute(fleet).string()}};
+  std::string text;
+  if (verb == "init") {
+    security::init(fleet, validity, run);
+    text = "fleet CA in " + (fs::absolute(fleet) / "ca").string() + ", signed governance " +
+           (fs::absolute(fleet) / "governance.p7s").string() + "; keep ca/ca.key secret";
+  } else if (verb == "revoke") {
+    security::Role role;
+    try {
+      role = security::parse_role(cl.arguments[2]);
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(e.what());
+    }
+    const auto updated = security::revoke(fleet, role, cl.arguments[3], run);
+    std::vector<std::string> folders;
+    for (const auto& f : updated) folders.push_back(f.string());
+    result["updated"] = folders;
+    text = std::string(security::role_name(role)) + " '" + cl.arguments[3] + "' revoked; new CRL copied into " +
+           std::to_string(folders.size()) + " identity folder(s); give it to the servers and restart them";
+  } else {
+    const security::Role role = security::parse_role(verb);
+    const fs::path dir = security::make_identity(fleet, role, cl.arguments[2], validity, run);
+    result["identity"] = dir.string();
+    result["config"] = (dir / "cyclonedds.xml").string();
+    text = verb + " '" + cl.arguments[2] + "' in " + dir.string() + "; use it with CYCLONEDDS_URI=<network config>,file://" +
+           (dir / "cyclonedds.xml").string();
+  }
+  if (cl.json) {
+    std::cout << result.dump() << "\n";
+  } else {
+    std::cout << text << "\n";
   }
   return 0;
 }
@@ -370,6 +424,7 @@ int run(const CommandLine& cl) {
   if (cl.command == "stop") return command_stop(cl);
   if (cl.command == "initial-pose") return command_initial_pose(cl);
   if (cl.command == "record") return command_record(cl);
+  if (cl.command == "security") return command_security(cl);
   throw UsageError("unknown command '" + cl.command + "'");
 }
 

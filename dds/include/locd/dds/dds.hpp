@@ -29,8 +29,13 @@ class Error : public std::runtime_error {
   dds_return_t code_;
 };
 
-// Throws Error("<what>: <dds_strretcode>") for a negative return code, else returns it.
+// Throws Error("<what>: <dds_strretcode>") for a negative return code, else returns it. A refusal
+// by DDS Security (DDS_RETCODE_NOT_ALLOWED_BY_SECURITY) says so in words.
 dds_return_t check(dds_return_t rc, const char* what);
+
+// True when `e` is DDS Security refusing an endpoint: this participant's signed permissions do not
+// grant that topic in that partition (README "Security").
+inline bool refused_by_security(const Error& e) { return e.code() == DDS_RETCODE_NOT_ALLOWED_BY_SECURITY; }
 
 // Owns one DDS entity; deleting it deletes its children.
 class Entity {
@@ -103,6 +108,9 @@ Entity subscriber_for(const Participant& p, const Partitions& partitions);
 // The partitions of the writer of a received sample, as discovery announced them.
 Partitions writer_partitions(dds_entity_t reader, dds_instance_handle_t publication);
 
+// "topic in partition(s) [a, b]", for error messages.
+std::string endpoint_text(const std::string& topic, const Partitions& partitions);
+
 template <typename T>
 class Writer {
  public:
@@ -113,12 +121,32 @@ class Writer {
     auto qos = make_qos(profile, depth);
     publisher_ = publisher_for(p, partitions);
     const dds_entity_t parent = publisher_.handle() ? publisher_.handle() : p.handle();
-    entity_ = Entity(check(dds_create_writer(parent, t, qos.get(), nullptr), ("create writer on " + topic).c_str()));
+    entity_ = Entity(check(dds_create_writer(parent, t, qos.get(), nullptr),
+                           ("create writer on " + endpoint_text(topic, partitions)).c_str()));
     topic_ = topic;
   }
-  void write(const T& sample) const { check(dds_write(entity_.handle(), &sample), ("write " + topic_).c_str()); }
+  // The writer, or, when DDS Security does not let this participant publish there, an absent one
+  // whose write() throws that refusal (an operator's client has no sensor writers, a monitor's
+  // none at all). Any other failure throws here.
+  static Writer where_permitted(const Participant& p, const std::string& topic, QosProfile profile, int depth = 8,
+                                const Partitions& partitions = {}) {
+    try {
+      return Writer(p, topic, profile, depth, partitions);
+    } catch (const Error& e) {
+      if (!refused_by_security(e)) throw;
+      Writer absent;
+      absent.topic_ = topic;
+      absent.refusal_ = e.what();
+      return absent;
+    }
+  }
+  void write(const T& sample) const {
+    if (!entity_.handle() && !refusal_.empty()) throw Error(refusal_, DDS_RETCODE_NOT_ALLOWED_BY_SECURITY);
+    check(dds_write(entity_.handle(), &sample), ("write " + topic_).c_str());
+  }
   // Readers currently matched (for tests and clients that wait for the server).
   uint32_t matched() const {
+    if (!entity_.handle() && !refusal_.empty()) throw Error(refusal_, DDS_RETCODE_NOT_ALLOWED_BY_SECURITY);
     dds_publication_matched_status_t s{};
     check(dds_get_publication_matched_status(entity_.handle(), &s), "publication matched status");
     return s.current_count;
@@ -130,6 +158,7 @@ class Writer {
   Entity publisher_;  // declared first: deleted after the writer
   Entity entity_;
   std::string topic_;
+  std::string refusal_;  // why DDS Security refused this writer (where_permitted)
 };
 
 // A reader whose callback runs on Cyclone's listener thread for every valid sample taken.
@@ -145,17 +174,28 @@ struct HasRobotId : std::false_type {};
 template <typename T>
 struct HasRobotId<T, std::void_t<decltype(std::declval<T>().robot_id)>> : std::true_type {};
 
+//
+// Writers gone: pass `on_writers_gone` and the reader reports every instance (a key value, e.g. a
+// robot id) that no live writer keeps any more: kNoWriters when the last writer of the instance is
+// deleted or lost (its participant's lease expired), kDisposed when a writer disposed it (other
+// vendors' default on deleting a writer; locd's writers only unregister, see make_qos). Only the
+// key fields of `key` are set. With robot scope, a disposal by a writer outside the robot's
+// partition is not reported: robot A cannot end robot B's instance.
+enum class InstanceGone { kNoWriters, kDisposed };
+
 template <typename T>
 class Reader {
  public:
   using Callback = std::function<void(const T&)>;
   using ForeignCallback = std::function<void(const T&, const Partitions& writer_partitions)>;
+  using GoneCallback = std::function<void(const T& key, InstanceGone why)>;
   Reader() = default;
   Reader(const Participant& p, const std::string& topic, QosProfile profile, Callback callback, int depth = 8,
-         const Partitions& partitions = {}, ForeignCallback on_foreign = nullptr)
+         const Partitions& partitions = {}, ForeignCallback on_foreign = nullptr, GoneCallback on_writers_gone = nullptr)
       : state_(std::make_unique<State>()) {
     state_->callback = std::move(callback);
     state_->on_foreign = std::move(on_foreign);
+    state_->on_writers_gone = std::move(on_writers_gone);
     const dds_entity_t t = create_topic(p, descriptor<T>(), topic);
     auto qos = make_qos(profile, depth);
     dds_listener_t* listener = nullptr;
@@ -167,7 +207,7 @@ class Reader {
     const dds_entity_t parent = state_->subscriber.handle() ? state_->subscriber.handle() : p.handle();
     const dds_entity_t r = dds_create_reader(parent, t, qos.get(), listener);
     if (listener) dds_delete_listener(listener);
-    state_->entity = Entity(check(r, ("create reader on " + topic).c_str()));
+    state_->entity = Entity(check(r, ("create reader on " + endpoint_text(topic, partitions)).c_str()));
     topic_ = topic;
   }
   ~Reader() {
@@ -188,7 +228,8 @@ class Reader {
   template <typename Visit>
   size_t take(Visit&& visit) {
     size_t count = 0;
-    take_each(state_->entity.handle(), [&](const T& s, const dds_sample_info_t&) {
+    take_each(state_->entity.handle(), [&](const T& s, const dds_sample_info_t& info) {
+      if (!info.valid_data) return;
       visit(s);
       ++count;
     });
@@ -205,6 +246,7 @@ class Reader {
   struct State {
     Callback callback;
     ForeignCallback on_foreign;
+    GoneCallback on_writers_gone;
     Entity subscriber;  // declared before the reader: deleted after it
     Entity entity;
     // Robot scope: the partitions of each writer seen, by publication handle (bounded).
@@ -238,9 +280,7 @@ class Reader {
     for (;;) {
       const dds_return_t n = dds_take(reader, samples, infos, kBatch, kBatch);
       if (n <= 0) break;
-      for (int i = 0; i < n; ++i) {
-        if (infos[i].valid_data) f(*static_cast<const T*>(samples[i]), infos[i]);
-      }
+      for (int i = 0; i < n; ++i) f(*static_cast<const T*>(samples[i]), infos[i]);
       dds_return_loan(reader, samples, n);
       if (n < kBatch) break;
     }
@@ -249,17 +289,32 @@ class Reader {
   static void on_data_available(dds_entity_t reader, void* arg) {
     auto* state = static_cast<State*>(arg);
     take_each(reader, [&](const T& s, const dds_sample_info_t& info) {
-      if constexpr (HasRobotId<T>::value) {
-        if (state->on_foreign) {
-          Partitions partitions;
-          if (!state->from_own_partition(reader, s, info, partitions)) {
-            state->on_foreign(s, partitions);
-            return;
+      if (info.valid_data) {
+        bool own = true;
+        if constexpr (HasRobotId<T>::value) {
+          if (state->on_foreign) {
+            Partitions partitions;
+            own = state->from_own_partition(reader, s, info, partitions);
+            if (!own) state->on_foreign(s, partitions);
           }
         }
+        if (own) state->callback(s);
       }
-      state->callback(s);
+      // An instance state change travels alone (valid_data false) or on the last sample taken.
+      if (state->on_writers_gone && info.instance_state != DDS_IST_ALIVE) report_gone(reader, *state, s, info);
     });
+  }
+
+  static void report_gone(dds_entity_t reader, State& state, const T& key, const dds_sample_info_t& info) {
+    const InstanceGone why =
+        info.instance_state == DDS_IST_NOT_ALIVE_DISPOSED ? InstanceGone::kDisposed : InstanceGone::kNoWriters;
+    if constexpr (HasRobotId<T>::value) {
+      if (why == InstanceGone::kDisposed && state.on_foreign) {
+        Partitions partitions;
+        if (!state.from_own_partition(reader, key, info, partitions)) return;
+      }
+    }
+    state.on_writers_gone(key, why);
   }
 
   std::unique_ptr<State> state_;

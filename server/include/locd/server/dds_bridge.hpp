@@ -7,7 +7,8 @@
 // Addressing (topics.hpp): the readers subscribe in every robot's partition (robot.*) and pass on
 // only samples whose robot_id is their writer's partition and a valid robot id; each robot's
 // outputs are written in its own partition, by writers made on first use and released, least
-// recently used first, beyond `max_robots`.
+// recently used first, beyond `max_robots`. The readers also track which robots still have a
+// live writer (RobotWriterPresence) and tell the Server when one comes or goes.
 #pragma once
 
 #include <map>
@@ -18,6 +19,7 @@
 #include "locd/dds/dds.hpp"
 #include "locd/server/log.hpp"
 #include "locd/server/output_sink.hpp"
+#include "locd/server/writer_presence.hpp"
 
 namespace locd::server {
 
@@ -39,6 +41,7 @@ class DdsBridge : public OutputSink {
   void publish_server_info(const ServerInfoReport& info) override;
 
  private:
+  static constexpr size_t kMaxRobotsTracked = 65536;
   struct Readers;
   struct RobotWriters;
   // The writers of one robot's partition (made if needed), marked as just used.
@@ -53,6 +56,7 @@ class DdsBridge : public OutputSink {
   std::mutex writers_mutex_;
   std::map<std::string, std::shared_ptr<RobotWriters>> robot_writers_;
   uint64_t use_counter_ = 0;
+  RobotWriterPresence presence_{kMaxRobotsTracked};  // session ownership; before the readers using it
   std::unique_ptr<Readers> readers_;
 };
 

@@ -50,6 +50,13 @@ class Server {
   void on_invalid_robot_id(const std::string& topic, const std::string& error);
   uint64_t messages_refused_for_robot_id() const;
 
+  // Session ownership (session_ownership.cpp). The bridge reports when the last live writer of a
+  // robot's requests and sensor data is gone (alive false) or one is back (alive true); a session
+  // a remote request started ends session_grace_s after its robot went, unless it came back.
+  // Boot sessions are exempt. end_ownerless_sessions() runs from the server's periodic loop.
+  void on_robot_writers(const std::string& robot_id, bool alive);
+  void end_ownerless_sessions();
+
   void publish_all_status();
   ServerInfoReport info() const;
   std::shared_ptr<Session> find(const std::string& robot_id) const;
@@ -99,6 +106,7 @@ class Server {
   std::chrono::steady_clock::time_point last_refusal_log_{};
   std::map<std::string, ResumeState> saved_;  // the last run's states, given to sessions as they start
   std::string last_saved_;                     // what save_state wrote last (to skip unchanged writes)
+  std::map<std::string, std::chrono::steady_clock::time_point> ownerless_since_;  // robots with a session only
 };
 
 }  // namespace locd::server

@@ -34,6 +34,9 @@ struct ServerConfig {
   int queue_depth = 64;
   size_t max_sessions = 256;  // robots served at once; requests beyond are refused
   double status_period_s = 1.0;
+  // A session a remote request started ends this long after no live writer of its robot's
+  // requests or sensor data remains (session ownership); boot sessions are the server's own.
+  double session_grace_s = 10.0;
   Limits limits;
   LogLevel log_level = LogLevel::kInfo;
   std::vector<BootSession> sessions;
