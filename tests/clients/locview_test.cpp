@@ -29,8 +29,8 @@ using locd::test::TestServer;
 
 namespace {
 
-constexpr int kDomainView = 120;
-constexpr int kDomainAbuse = 121;
+constexpr int kDomainView = 124;
+constexpr int kDomainAbuse = 125;
 
 std::string binary(const std::string& name) { return locd::test::binary_dir() + "/bin/" + name; }
 

@@ -27,8 +27,8 @@ using Json = nlohmann::json;
 
 namespace {
 
-constexpr int kDomainRecord = 122;
-constexpr int kDomainKilled = 123;
+constexpr int kDomainRecord = 126;
+constexpr int kDomainKilled = 127;
 
 std::string binary(const std::string& name) { return locd::test::binary_dir() + "/bin/" + name; }
 std::string corridor() { return locd::test::source_dir() + "/config/scenarios/corridor.yaml"; }

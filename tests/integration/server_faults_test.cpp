@@ -1,4 +1,4 @@
-// Fault isolation against a real locd over real DDS (loopback, domains 200-210): a plugin that
+// Fault isolation against a real locd over real DDS (loopback, domains 100-110): a plugin that
 // crashes, exits, hangs or hoards memory costs only its own robot, whose status names the
 // failure; SIGTERM ends a server whose plugin hangs; after kill -9 and a restart, a session
 // resumes from the robot's last pose (the server's state file), refuses the stale initial pose
@@ -123,18 +123,18 @@ TEST_P(ServerFaults, ABrokenPluginCostsOnlyItsOwnRobot) {
 
 INSTANTIATE_TEST_SUITE_P(
     Faults, ServerFaults,
-    ::testing::Values(FaultCase{"segfault", "was killed by signal 11 (SIGSEGV", 200},
-                      FaultCase{"abort", "was killed by signal 6 (SIGABRT", 201},
-                      FaultCase{"exit", "exited with code 3", 202},
-                      FaultCase{"hang", "did not answer the update of", 203},
-                      FaultCase{"allocate", "ran out of memory (memory_limit_mb = 512)", 204},
-                      FaultCase{"stack_overflow", "was killed by signal 11 (SIGSEGV", 205},
-                      FaultCase{"garbage", "broke the worker protocol", 206}),
+    ::testing::Values(FaultCase{"segfault", "was killed by signal 11 (SIGSEGV", 100},
+                      FaultCase{"abort", "was killed by signal 6 (SIGABRT", 101},
+                      FaultCase{"exit", "exited with code 3", 102},
+                      FaultCase{"hang", "did not answer the update of", 103},
+                      FaultCase{"allocate", "ran out of memory (memory_limit_mb = 512)", 104},
+                      FaultCase{"stack_overflow", "was killed by signal 11 (SIGSEGV", 105},
+                      FaultCase{"garbage", "broke the worker protocol", 106}),
     [](const auto& info) { return info.param.fault; });
 
 TEST(ServerFaultsShutdown, SigtermEndsTheServerWhilePluginsHang) {
-  TestServer server("locd_faults_sigterm", 207, options("plugin_workers: {update_deadline_s: 600}\n"));
-  RobotSide b(207, "robot_b", server.process());
+  TestServer server("locd_faults_sigterm", 107, options("plugin_workers: {update_deadline_s: 600}\n"));
+  RobotSide b(107, "robot_b", server.process());
   Driver drive_b(b);
   ASSERT_TRUE(drive_b.matched());
   ASSERT_TRUE(b.start("", faulty("fault: hang")));
@@ -154,8 +154,8 @@ TEST(ServerFaultsShutdown, SigtermEndsTheServerWhilePluginsHang) {
 }
 
 TEST(ServerFaultsRestart, KillNineAndRestartResumeFromTheRobotsLastPose) {
-  TestServer server("locd_faults_restart", 208, options("state_directory: .\n"));
-  RobotSide robot(208, "robot_r", server.process());
+  TestServer server("locd_faults_restart", 108, options("state_directory: .\n"));
+  RobotSide robot(108, "robot_r", server.process());
   Driver drive(robot);
   ASSERT_TRUE(drive.matched());
   ASSERT_TRUE(robot.start("", kFixture));
@@ -199,9 +199,9 @@ TEST(ServerFaultsRestart, KillNineAndRestartResumeFromTheRobotsLastPose) {
 }
 
 TEST(ServerFaultsRestart, APoisonRequestReplayedAtStartUpIsNotStartedAgain) {
-  TestServer server("locd_faults_poison", 210,
+  TestServer server("locd_faults_poison", 110,
                     options("state_directory: .\nplugin_workers: {max_failures: 2, restart_backoff_s: [0.05, 0.1]}\n"));
-  RobotSide robot(210, "robot_p", server.process());
+  RobotSide robot(110, "robot_p", server.process());
   Driver drive(robot);
   ASSERT_TRUE(drive.matched());
   ASSERT_TRUE(robot.start("", faulty("fault: segfault"), 7));
