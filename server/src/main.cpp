@@ -16,6 +16,7 @@
 #include "locd/sdk/plugin_loader.hpp"
 #include "locd/server/dds_bridge.hpp"
 #include "locd/server/log.hpp"
+#include "locd/server/ros2_bridge.hpp"
 #include "locd/server/server.hpp"
 #include "locd/server/server_config.hpp"
 
@@ -186,12 +187,16 @@ int run(const Options& o) {
 
   try {
     DdsBridge bridge(config.domain_id, config.server_id, config.limits, logger, config.max_sessions + kUnservedRobotsWithWriters);
-    Server server(config, catalog, bridge, logger);
+    Ros2Bridge ros2(bridge.participant(), config.limits, bridge, logger);  // ROS 2 robots' topics, then `bridge`
+    Server server(config, catalog, ros2, logger);
+    server.set_session_observer(&ros2);
     // Whatever way this scope ends, the listeners stop before the server they call goes away.
     struct ReadersFirst {
       DdsBridge& bridge;
-      ~ReadersFirst() { bridge.disconnect(); }
-    } readers_first{bridge};
+      Ros2Bridge& ros2;
+      ~ReadersFirst() { bridge.disconnect(); ros2.disconnect(); }
+    } readers_first{bridge, ros2};
+    ros2.connect(server);
     server.boot();
     bridge.connect(server);
     logger.log(LogLevel::kInfo, "server",
@@ -211,6 +216,7 @@ int run(const Options& o) {
     }
     logger.log(LogLevel::kInfo, "server", "shutting down: stopping readers, then workers");
     bridge.disconnect();
+    ros2.disconnect();
     server.shutdown();
   } catch (const std::exception& e) {
     logger.log(LogLevel::kError, "server", e.what());

@@ -124,6 +124,7 @@ void Server::on_session_request(SessionRequestMessage request) {
     }
     if (session) {
       session->stop(request.request_id, "stopped by request " + std::to_string(request.request_id));
+      if (observer_) observer_->session_ended(request.robot_id);
     } else {
       SessionStatusReport status;
       status.robot_id = request.robot_id;
@@ -186,6 +187,7 @@ void Server::start_plugin(const std::shared_ptr<Session>& session, uint64_t gene
                           const PluginConfig& config, const std::string& source) {
   try {
     LocalizerPtr localizer = create_configured(catalog_, config.plugin, context_for(session->robot_id()), config.params);
+    if (observer_) observer_->session_configured(session->robot_id(), config);
     const auto library = catalog_.find(config.plugin);
     session->install(generation, request_id, std::move(localizer), config.plugin,
                      "plugin " + config.plugin + " " + library->descriptor().version + " configured from " + source);
@@ -196,9 +198,13 @@ void Server::start_plugin(const std::shared_ptr<Session>& session, uint64_t gene
 }
 
 void Server::abandon_if_failed(const std::shared_ptr<Session>& session, uint64_t generation) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  auto it = sessions_.find(session->robot_id());
-  if (it != sessions_.end() && it->second == session && session->abandon_if_idle(generation)) sessions_.erase(it);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = sessions_.find(session->robot_id());
+    if (it == sessions_.end() || it->second != session || !session->abandon_if_idle(generation)) return;
+    sessions_.erase(it);
+  }
+  if (observer_) observer_->session_ended(session->robot_id());
 }
 
 void Server::on_measurement(const std::string& robot_id, Measurement measurement) {

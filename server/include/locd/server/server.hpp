@@ -15,6 +15,7 @@
 #include "locd/server/output_sink.hpp"
 #include "locd/server/server_config.hpp"
 #include "locd/server/session.hpp"
+#include "locd/server/session_observer.hpp"
 #include "locd/server/worker_pool.hpp"
 
 namespace locd::server {
@@ -33,6 +34,9 @@ class Server {
   ~Server();
   Server(const Server&) = delete;
   Server& operator=(const Server&) = delete;
+
+  // Told of every plugin config configured and every session ended (the ROS 2 bridge); before boot().
+  void set_session_observer(SessionObserver* observer) { observer_ = observer; }
 
   // Publishes ServerInfo and starts the boot sessions of the config.
   void boot();
@@ -71,6 +75,7 @@ class Server {
   const PluginCatalog& catalog_;
   OutputSink& sink_;
   Logger& logger_;
+  SessionObserver* observer_ = nullptr;
   WorkerPool pool_;
   int64_t started_ns_;
 
