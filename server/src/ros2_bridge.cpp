@@ -184,9 +184,57 @@ struct Ros2Bridge::Robot {
 };
 
 Ros2Bridge::Ros2Bridge(const dds::Participant& participant, const Limits& limits, OutputSink& next, Logger& logger)
-    : participant_(participant), limits_(limits), next_(next), logger_(logger) {}
+    : participant_(participant), limits_(limits), next_(next), logger_(logger),
+      reaper_([this] { reaper_loop(); }) {}
 
-Ros2Bridge::~Ros2Bridge() { disconnect(); }
+Ros2Bridge::~Ros2Bridge() {
+  disconnect();
+  {
+    std::lock_guard<std::mutex> lock(retired_mutex_);
+    stopping_ = true;
+  }
+  retired_changed_.notify_all();
+  reaper_.join();
+}
+
+void Ros2Bridge::retire(std::shared_ptr<Robot> robot) {
+  {
+    std::lock_guard<std::mutex> lock(retired_mutex_);
+    retired_.push_back(std::move(robot));
+  }
+  retired_changed_.notify_all();
+}
+
+void Ros2Bridge::reap() {
+  std::unique_lock<std::mutex> lock(retired_mutex_);
+  for (;;) {
+    if (!retired_.empty()) {
+      std::vector<std::shared_ptr<Robot>> batch;
+      batch.swap(retired_);
+      ++deleting_;
+      lock.unlock();
+      batch.clear();
+      lock.lock();
+      --deleting_;
+      retired_changed_.notify_all();
+    } else if (deleting_ > 0) {
+      retired_changed_.wait(lock);
+    } else {
+      return;
+    }
+  }
+}
+
+void Ros2Bridge::reaper_loop() {
+  for (;;) {
+    {
+      std::unique_lock<std::mutex> lock(retired_mutex_);
+      retired_changed_.wait(lock, [this] { return stopping_ || !retired_.empty(); });
+      if (stopping_ && retired_.empty()) return;
+    }
+    reap();
+  }
+}
 
 void Ros2Bridge::connect(Server& server) {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -201,7 +249,8 @@ void Ros2Bridge::disconnect() {
     server_ = nullptr;
     robots.swap(robots_);
   }
-  robots.clear();  // outside the lock: deleting a reader waits for its callbacks
+  for (auto& [_, robot] : robots) retire(std::move(robot));
+  reap();  // outside the locks: deleting a reader waits for its callbacks
 }
 
 void Ros2Bridge::session_configured(const std::string& robot_id, const PluginConfig& config) {
@@ -235,9 +284,10 @@ void Ros2Bridge::session_configured(const std::string& robot_id, const PluginCon
       std::lock_guard<std::mutex> lock(mutex_);
       robots_.erase(robot_id);
     }
-    current.reset();
+    retire(std::move(current));
     logger_.log(LogLevel::kInfo, robot_id, "ROS 2 topics removed");
   }
+  reap();  // on a worker: the endpoints retired so far are gone before new ones are made
   if (!config.ros2 || !server) return;
   std::shared_ptr<Robot> robot;
   try {
@@ -246,12 +296,18 @@ void Ros2Bridge::session_configured(const std::string& robot_id, const PluginCon
     throw ConfigError(std::string("ros2: the robot's ROS 2 topics could not be made: ") + e.what());
   }
   logger_.log(LogLevel::kInfo, robot_id, robot->describe());
-  std::lock_guard<std::mutex> lock(mutex_);
-  robots_[robot_id] = std::move(robot);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    robots_[robot_id] = robot;
+  }
+  // A stop that came while these endpoints were made: its session_ended found nothing to remove.
+  // (One that comes after this check finds them.)
+  if (!server->find(robot_id)) session_ended(robot_id);
 }
 
 void Ros2Bridge::session_ended(const std::string& robot_id) {
-  std::lock_guard<std::mutex> config_lock(config_mutex_);
+  // Often on a DDS listener thread: no config_mutex_ (a worker holding it may be deleting
+  // endpoints, which waits for this thread) and no deletion here.
   std::shared_ptr<Robot> robot;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -260,7 +316,7 @@ void Ros2Bridge::session_ended(const std::string& robot_id) {
     robot = std::move(it->second);
     robots_.erase(it);
   }
-  robot.reset();
+  retire(std::move(robot));
   logger_.log(LogLevel::kInfo, robot_id, "ROS 2 topics removed");
 }
 

@@ -4,7 +4,7 @@
 // (<pkg>::msg::dds_::<Name>_) and QoS, in the default partition as rmw does it.
 //
 // - A robot's endpoints appear when its session is configured (SessionObserver) and go when it
-//   stops; a switch to a config with the same ros2 section keeps them (and the pose a late
+//   stops (deleted off the DDS listener thread the stop arrived on); a switch to a config with the same ros2 section keeps them (and the pose a late
 //   joiner gets), one with another section replaces them, one without removes them. Two robots
 //   may not share a topic (except tf, which every robot writes).
 // - Inputs are converted (ros2_convert.hpp: sizes bounded before allocation, the sdk checks) and
@@ -16,10 +16,12 @@
 //   written as well.
 #pragma once
 
+#include <condition_variable>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "locd/dds/dds.hpp"
@@ -57,6 +59,13 @@ class Ros2Bridge : public OutputSink, public SessionObserver {
 
  private:
   struct Robot;
+  // Hands a robot's endpoints over for deletion. A stop request arrives on a DDS listener thread,
+  // which must not delete DDS entities (Cyclone's deletion waits for that very thread): they are
+  // deleted on the reaper thread, or by reap() on a worker.
+  void retire(std::shared_ptr<Robot> robot);
+  // Deletes every retired robot's endpoints (on this thread), waiting for those being deleted.
+  void reap();
+  void reaper_loop();
 
   const dds::Participant& participant_;
   Limits limits_;
@@ -66,6 +75,13 @@ class Ros2Bridge : public OutputSink, public SessionObserver {
   mutable std::mutex mutex_;  // guards server_ and robots_
   Server* server_ = nullptr;
   std::map<std::string, std::shared_ptr<Robot>> robots_;
+
+  std::mutex retired_mutex_;
+  std::condition_variable retired_changed_;
+  std::vector<std::shared_ptr<Robot>> retired_;
+  int deleting_ = 0;       // batches being deleted now
+  bool stopping_ = false;
+  std::thread reaper_;     // last: started when everything above exists
 };
 
 }  // namespace locd::server
