@@ -37,6 +37,7 @@
 #include "ros2PubSubTypes.h"
 #include "locd/sim/scenario.hpp"
 #include "locd/sim/simulation.hpp"
+#include "eventually.hpp"
 #include "test_server.hpp"
 
 using namespace std::chrono_literals;
@@ -45,6 +46,8 @@ namespace wire = locd::msg;
 namespace geometry = geometry_msgs::msg::dds_;
 
 namespace {
+
+using locd::test::eventually;
 
 // One Fast DDS participant on the test's domain; its entities go with it.
 class FastDds {
@@ -108,16 +111,6 @@ class FastDds {
   fdds::DomainParticipant* participant_ = nullptr;
 };
 
-template <typename Predicate>
-bool eventually(Predicate done, std::chrono::milliseconds timeout = 30s) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(5ms);
-  }
-  return true;
-}
-
 bool matched(fdds::DataWriter* w) {
   fdds::PublicationMatchedStatus s;
   w->get_publication_matched_status(s);
@@ -134,18 +127,9 @@ void take_all(fdds::DataReader* reader, Visit visit) {
   }
 }
 
-void to_fast(const Eigen::Isometry3d& T, wire::Pose3D& out) {
-  const Eigen::Quaterniond q(T.linear());
-  out.position().x(T.translation().x());
-  out.position().y(T.translation().y());
-  out.position().z(T.translation().z());
-  out.orientation().x(q.x());
-  out.orientation().y(q.y());
-  out.orientation().z(q.z());
-  out.orientation().w(q.w());
-}
-
-void to_fast(const Eigen::Isometry3d& T, geometry::Pose_& out) {
+// A pose into either IDL's pose type (locd's Pose3D, ROS 2's Pose_): the same members.
+template <typename FastPose>
+void to_fast(const Eigen::Isometry3d& T, FastPose& out) {
   const Eigen::Quaterniond q(T.linear());
   out.position().x(T.translation().x());
   out.position().y(T.translation().y());

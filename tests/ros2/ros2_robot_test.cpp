@@ -17,6 +17,7 @@
 #include "locd/sim/scenario.hpp"
 #include "locd/sim/simulation.hpp"
 #include "robot_side.hpp"
+#include "eventually.hpp"
 #include "test_server.hpp"
 
 namespace fs = std::filesystem;
@@ -25,6 +26,8 @@ using namespace locd;
 namespace ros2 = locd::dds::ros2;
 
 namespace {
+
+using locd::test::eventually;
 
 sim::Scenario corridor() { return sim::load_scenario(test::source_dir() + "/config/scenarios/corridor.yaml"); }
 
@@ -50,16 +53,6 @@ std::unique_ptr<test::TestServer> server_with_boot_session(const std::string& na
   test::TestServerOptions options;
   options.extra_config = "sessions:\n  - robot_id: " + robot_id + "\n    config_file: " + file.string() + "\n";
   return std::make_unique<test::TestServer>(name, domain, options);
-}
-
-template <typename Predicate>
-bool eventually(Predicate done, std::chrono::milliseconds timeout = 30s) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(10ms);
-  }
-  return true;
 }
 
 }  // namespace
