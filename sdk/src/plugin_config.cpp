@@ -16,16 +16,18 @@ void check_plugin_name(const std::string& name, const std::string& what) {
 }
 
 PluginConfig split_plugin_config(const Params& document, const std::string& source_name) {
-  document.expect_only({"plugin", "params"});
+  document.expect_only({"plugin", "params", "ros2"});
   if (!document.has("plugin")) {
     throw ConfigError(source_name + ": key 'plugin' is missing; expected 'plugin: <name>' and 'params:'");
   }
   const std::string plugin = document.required_text("plugin");
   check_plugin_name(plugin, source_name + " (" + document.where("plugin") + ")");
-  if (!document.has("params")) return {plugin, Params(YAML::Node(YAML::NodeType::Map), plugin)};
+  std::optional<Ros2Config> ros2;
+  if (document.has("ros2")) ros2 = parse_ros2_config(document.child("ros2"));
+  if (!document.has("params")) return {plugin, Params(YAML::Node(YAML::NodeType::Map), plugin), ros2};
   const YAML::Node params = document.node()["params"];
   if (!params.IsMap()) document.fail("params", "is not a map; expected the plugin's parameters as 'key: value' lines");
-  return {plugin, Params(params, plugin)};
+  return {plugin, Params(params, plugin), ros2};
 }
 
 PluginConfig split_plugin_config(const std::string& yaml_text, const std::string& source_name) {

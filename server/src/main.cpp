@@ -18,6 +18,7 @@
 #include "locd/server/dds_bridge.hpp"
 #include "locd/server/dds_log.hpp"
 #include "locd/server/log.hpp"
+#include "locd/server/ros2_bridge.hpp"
 #include "locd/server/server.hpp"
 #include "locd/server/server_config.hpp"
 
@@ -206,12 +207,16 @@ int run(const Options& o) {
   const DdsLogForwarder dds_log(logger);  // Cyclone's own errors (refused peers, certificates) into this log
   try {
     DdsBridge bridge(config.domain_id, config.server_id, config.limits, logger, config.max_sessions + kUnservedRobotsWithWriters);
-    Server server(config, catalog, bridge, logger);
+    Ros2Bridge ros2(bridge.participant(), config.limits, bridge, logger);  // ROS 2 robots' topics, then `bridge`
+    Server server(config, catalog, ros2, logger);
+    server.set_session_observer(&ros2);
     // Whatever way this scope ends, the listeners stop before the server they call goes away.
     struct ReadersFirst {
       DdsBridge& bridge;
-      ~ReadersFirst() { bridge.disconnect(); }
-    } readers_first{bridge};
+      Ros2Bridge& ros2;
+      ~ReadersFirst() { bridge.disconnect(); ros2.disconnect(); }
+    } readers_first{bridge, ros2};
+    ros2.connect(server);
     server.boot();
     bridge.connect(server);
     logger.log(LogLevel::kInfo, "server",
@@ -235,6 +240,7 @@ int run(const Options& o) {
     }
     logger.log(LogLevel::kInfo, "server", "shutting down: stopping readers, then workers");
     bridge.disconnect();
+    ros2.disconnect();
     server.save_state();
     server.shutdown(kWorkerExitGrace);
   } catch (const std::exception& e) {

@@ -37,9 +37,16 @@ Server::Server(ServerConfig config, const PluginCatalog& catalog, OutputSink& si
       state_file_(config_.state_directory), started_ns_(wall_clock_ns()), started_(std::chrono::steady_clock::now()) {
   pool_.on_task_error([this](const std::string& what) { logger_.log(LogLevel::kError, "server", "task failed: " + what); });
   environment_.forget = [this](const std::shared_ptr<Session>& session) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    auto it = sessions_.find(session->robot_id());
-    if (it != sessions_.end() && it->second == session) sessions_.erase(it);
+    bool forgotten = false;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      auto it = sessions_.find(session->robot_id());
+      if (it != sessions_.end() && it->second == session) {
+        sessions_.erase(it);
+        forgotten = true;
+      }
+    }
+    if (forgotten && observer_) observer_->session_ended(session->robot_id());
   };
   saved_ = state_file_.load(logger_);
   if (state_file_.enabled()) {
@@ -171,6 +178,7 @@ void Server::on_session_request(SessionRequestMessage request) {
     }
     if (session) {
       session->stop(request.request_id, "stopped by request " + std::to_string(request.request_id));
+      if (observer_) observer_->session_ended(request.robot_id);
     } else {
       SessionStatusReport status;
       status.robot_id = request.robot_id;
@@ -243,6 +251,10 @@ void Server::start_plugin(const std::shared_ptr<Session>& session, uint64_t gene
   std::shared_ptr<const PluginLibrary> library;
   try {
     library = catalog_.require(plugin);
+    // The parts kept beside the plugin (a robot's ROS 2 topics) follow the config before it is
+    // sent to a worker; they may refuse it. (A switch that then fails in the worker keeps the
+    // running plugin with the new config's ROS 2 topics.)
+    if (observer_) observer_->session_configured(session->robot_id(), split_plugin_config(text));
   } catch (const std::exception& e) {
     if (!session->fail_request(generation, request_id, e.what())) abandon_if_failed(session, generation);
     session->publish_status();
@@ -252,9 +264,13 @@ void Server::start_plugin(const std::shared_ptr<Session>& session, uint64_t gene
 }
 
 void Server::abandon_if_failed(const std::shared_ptr<Session>& session, uint64_t generation) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  auto it = sessions_.find(session->robot_id());
-  if (it != sessions_.end() && it->second == session && session->abandon_if_idle(generation)) sessions_.erase(it);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = sessions_.find(session->robot_id());
+    if (it == sessions_.end() || it->second != session || !session->abandon_if_idle(generation)) return;
+    sessions_.erase(it);
+  }
+  if (observer_) observer_->session_ended(session->robot_id());
 }
 
 void Server::on_measurement(const std::string& robot_id, Measurement measurement) {

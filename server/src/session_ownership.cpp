@@ -56,6 +56,7 @@ void Server::end_ownerless_sessions() {
             << " s (session_grace_s)";
     logger_.log(LogLevel::kInfo, session->robot_id(), message.str());
     session->stop(0, message.str());
+    if (observer_) observer_->session_ended(session->robot_id());
   }
 }
 

@@ -11,6 +11,7 @@
 #include <type_traits>
 #include <variant>
 
+#include "live_ros2.hpp"
 #include "locd/client/client.hpp"
 #include "locd/sim/report.hpp"
 #include "locd/sim/simulation.hpp"
@@ -58,14 +59,20 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
 
   std::mutex mutex;
   std::vector<PoseUpdate> received;
-  client.on_pose(
-      [&](const PoseUpdate& p) {
-        std::lock_guard<std::mutex> lock(mutex);
-        received.push_back(p);
-      },
-      scenario.robot.id);
+  auto record = [&](const PoseUpdate& p) {
+    std::lock_guard<std::mutex> lock(mutex);
+    received.push_back(p);
+  };
+  std::string config_text = scenario.localizer.config_text;
+  std::unique_ptr<LiveRos2Robot> ros2;  // --ros2: scans, odometry and poses over ROS 2 instead
+  if (options.ros2_namespace.empty()) {
+    client.on_pose(record, scenario.robot.id);
+  } else {
+    ros2 = std::make_unique<LiveRos2Robot>(scenario, result.seed, options, record);
+    config_text += "\n" + ros2->config_section();
+  }
 
-  const auto status = client.request_session(scenario.localizer.plugin, scenario.localizer.config_text, timeout);
+  const auto status = client.request_session(scenario.localizer.plugin, config_text, timeout);
   if (!status) {
     std::cerr << "locsim: the server did not answer the session request for robot '" << scenario.robot.id
               << "' (plugin " << scenario.localizer.plugin << ") within " << options.server_timeout_s << " s\n";
@@ -74,6 +81,11 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
   if (!status->request_ok) {
     std::cerr << "locsim: the server refused the session for robot '" << scenario.robot.id << "': " << status->message
               << "\n";
+    return 2;
+  }
+  if (ros2 && !ros2->wait_matched(timeout)) {
+    std::cerr << "locsim: locd's ROS 2 topics for robot '" << scenario.robot.id << "' in namespace "
+              << options.ros2_namespace << " did not appear within " << options.server_timeout_s << " s\n";
     return 2;
   }
 
@@ -146,7 +158,7 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
             truth_pose.covariance = Matrix6d::Zero();
             client.publish_ground_truth(truth_pose);
           }
-          client.publish(value);
+          if (!ros2 || !ros2->publish(value)) client.publish(value);
         },
         m->measurement);
     if (m->t >= next_print) {

@@ -19,6 +19,9 @@ struct LiveOptions {
   bool json = false;
   std::string plot_file;
   double server_timeout_s = 10.0;
+  // Non-empty: the robot speaks ROS 2 in this namespace (scans and odometry out, the pose in as
+  // PoseWithCovarianceStamped); the session config gets the matching `ros2:` section.
+  std::string ros2_namespace;
 };
 
 // Returns the process exit code; prints progress to stderr (json) or stdout.

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "locd/sdk/ros2_config.hpp"
 #include "replay.hpp"
 #include "scenario_kinds.hpp"
 
@@ -29,9 +30,10 @@ const char* kUsage =
     "      offline: the scenario straight through the plugin, no DDS; --mcap records the run (sensors,\n"
     "      poses, ground truth) for Foxglove and locsim replay\n"
     "  locsim live SCENARIO.yaml [--domain N] [--rate X] [--duration S] [--seed N] [--json] [--plot FILE.png]\n"
-    "              [--server-timeout S]\n"
+    "              [--server-timeout S] [--ros2 NAMESPACE]\n"
     "      real time against a running locd (DDS through CYCLONEDDS_URI); --rate 2 runs twice as fast;\n"
-    "      waits --server-timeout seconds (default 10) for the server and each answer\n"
+    "      waits --server-timeout seconds (default 10) for the server and each answer; --ros2: the robot\n"
+    "      speaks ROS 2 in NAMESPACE (LaserScan, Odometry out; PoseWithCovarianceStamped amcl_pose in)\n"
     "  locsim montecarlo SCENARIO.yaml [--runs N] [--strategies a,b,...] [--json] [--plot FILE.png]\n"
     "                   [--plugin-dir DIR] [--seed N] [--duration S]\n"
     "      a road-sign scenario (feature_ekf landmarks), N seeded drives per association strategy\n"
@@ -67,6 +69,21 @@ uint64_t parse_unsigned(const std::string& option, const std::string& text, uint
   throw UsageError(option + " " + text + ": expected an integer in [0, " + std::to_string(max) + "]");
 }
 
+// A ROS 2 namespace: checked as the server will check it (locd/sdk/ros2_config.hpp), "/robot1".
+std::string parse_ros2_namespace(const std::string& text) {
+  std::string ros_namespace;
+  try {
+    ros_namespace =
+        locd::parse_ros2_config(locd::Params::parse("namespace: '" + text + "'\ntopics: {scan: scan}\n", "--ros2")).ros_namespace;
+  } catch (const std::exception&) {
+  }
+  if (ros_namespace.empty()) {
+    throw UsageError("--ros2 " + text + ": expected a ROS 2 namespace such as /robot1 (names of [A-Za-z0-9_], not "
+                     "starting with a digit, joined by '/')");
+  }
+  return ros_namespace;
+}
+
 fs::path default_plugin_directory() {
   if (const char* env = std::getenv("LOCD_PLUGIN_DIR"); env && *env) return env;
   std::error_code ec;
@@ -77,7 +94,7 @@ fs::path default_plugin_directory() {
 
 // The options as text, before conversion.
 struct Text {
-  std::string scenario, seed, duration, runs, strategies, domain, server_timeout, rate;
+  std::string scenario, seed, duration, runs, strategies, domain, server_timeout, rate, ros2;
   std::vector<std::string> plugin_directories;
 };
 
@@ -143,6 +160,7 @@ Command parse(const std::vector<std::string>& args) {
     app.add_option("--domain", text.domain);
     app.add_option("--server-timeout", text.server_timeout);
     app.add_option("--rate", text.rate);
+    app.add_option("--ros2", text.ros2);
   }
   if (mode == "montecarlo") {
     app.add_option("--runs", text.runs);
@@ -167,6 +185,7 @@ Command parse(const std::vector<std::string>& args) {
     c.live.server_timeout_s = parse_number("--server-timeout", text.server_timeout, 0.1, 3600.0);
   }
   if (!text.rate.empty()) c.live.rate = parse_number("--rate", text.rate, 0.01, 100.0);
+  if (!text.ros2.empty()) c.live.ros2_namespace = parse_ros2_namespace(text.ros2);
   for (const std::string& d : text.plugin_directories) c.plugin_directories.push_back(d);
   if (c.plugin_directories.empty()) c.plugin_directories.push_back(default_plugin_directory());
   if (text.scenario.empty()) throw UsageError("locsim " + mode + " needs a SCENARIO.yaml");

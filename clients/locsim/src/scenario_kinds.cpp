@@ -108,6 +108,10 @@ int run_command(const Command& command) {
   }
   const Runner& runner = command.mode == "run" ? kind.run : command.mode == "live" ? kind.live : kind.montecarlo;
   if (!runner) throw UsageError(kind.not_offered);
+  if (!command.live.ros2_namespace.empty() && &kind != &scenario_kinds().back()) {
+    throw UsageError("--ros2 plays a laser-and-odometry robot of a segment-world scenario (e.g. "
+                     "config/scenarios/corridor.yaml), not a " + kind.name + " scenario");
+  }
   return runner(command);
 }
 

@@ -67,6 +67,10 @@ enum class QosProfile {
   kSensor,   // reliable, keep-last(depth), volatile
   kPose,     // reliable, keep-last 1 per robot, volatile
   kState,    // reliable, keep-last 1 per instance, transient-local: late joiners get it
+  // ROS 2's profiles (rclcpp's QoS presets; notes/dds.md), for the topics of ROS 2 robots:
+  kRos2SensorData,  // best effort, keep-last(depth), volatile: a reader matches best-effort and reliable writers
+  kRos2Default,     // reliable, keep-last(depth), volatile
+  kRos2Latched,     // reliable, keep-last 1, transient-local (maps, amcl_pose)
 };
 
 struct QosDeleter { void operator()(dds_qos_t* q) const { dds_delete_qos(q); } };
@@ -117,11 +121,11 @@ class Writer {
   Writer() = default;
   Writer(const Participant& p, const std::string& topic, QosProfile profile, int depth = 8,
          const Partitions& partitions = {}) {
-    const dds_entity_t t = create_topic(p, descriptor<T>(), topic);
+    topic_entity_ = Entity(create_topic(p, descriptor<T>(), topic));
     auto qos = make_qos(profile, depth);
     publisher_ = publisher_for(p, partitions);
     const dds_entity_t parent = publisher_.handle() ? publisher_.handle() : p.handle();
-    entity_ = Entity(check(dds_create_writer(parent, t, qos.get(), nullptr),
+    entity_ = Entity(check(dds_create_writer(parent, topic_entity_.handle(), qos.get(), nullptr),
                            ("create writer on " + endpoint_text(topic, partitions)).c_str()));
     topic_ = topic;
   }
@@ -155,7 +159,8 @@ class Writer {
   dds_entity_t handle() const { return entity_.handle(); }
 
  private:
-  Entity publisher_;  // declared first: deleted after the writer
+  Entity topic_entity_;  // each endpoint owns its topic entity: made and deleted with it
+  Entity publisher_;     // declared before the writer: deleted after it
   Entity entity_;
   std::string topic_;
   std::string refusal_;  // why DDS Security refused this writer (where_permitted)
@@ -196,7 +201,7 @@ class Reader {
     state_->callback = std::move(callback);
     state_->on_foreign = std::move(on_foreign);
     state_->on_writers_gone = std::move(on_writers_gone);
-    const dds_entity_t t = create_topic(p, descriptor<T>(), topic);
+    state_->topic = Entity(create_topic(p, descriptor<T>(), topic));
     auto qos = make_qos(profile, depth);
     dds_listener_t* listener = nullptr;
     if (state_->callback) {
@@ -205,7 +210,7 @@ class Reader {
     }
     state_->subscriber = subscriber_for(p, partitions);
     const dds_entity_t parent = state_->subscriber.handle() ? state_->subscriber.handle() : p.handle();
-    const dds_entity_t r = dds_create_reader(parent, t, qos.get(), listener);
+    const dds_entity_t r = dds_create_reader(parent, state_->topic.handle(), qos.get(), listener);
     if (listener) dds_delete_listener(listener);
     state_->entity = Entity(check(r, ("create reader on " + endpoint_text(topic, partitions)).c_str()));
     topic_ = topic;
@@ -247,7 +252,8 @@ class Reader {
     Callback callback;
     ForeignCallback on_foreign;
     GoneCallback on_writers_gone;
-    Entity subscriber;  // declared before the reader: deleted after it
+    Entity topic;       // declared before the reader: deleted after it
+    Entity subscriber;  // likewise
     Entity entity;
     // Robot scope: the partitions of each writer seen, by publication handle (bounded).
     std::mutex writers_mutex;

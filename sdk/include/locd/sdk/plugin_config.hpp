@@ -4,22 +4,28 @@
 //   plugin: feature_ekf        # which localizer (a name, never a path)
 //   params:                    # the plugin's own parameters, validated by its configure()
 //     map: corridor.yaml
+//   ros2:                      # optional: ROS 2 topics for the robot (ros2_config.hpp)
+//     namespace: /robot1
+//     topics: {scan: scan, odometry: odom, pose: amcl_pose}
 //
 // split_plugin_config checks the frame (known keys, a valid plugin name, params a map) and hands
 // back the plugin name and its parameters, rooted at the plugin's name, so a plugin's errors read
 // "parameter 'feature_ekf.gate_probability' (line 4, column 21) = 1.5 is out of range; ...".
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "locd/sdk/params.hpp"
+#include "locd/sdk/ros2_config.hpp"
 
 namespace locd {
 
 struct PluginConfig {
   std::string plugin;
   Params params;
+  std::optional<Ros2Config> ros2;  // the `ros2:` section, when present
 };
 
 // A plugin config as text, so that it can travel to the worker process that runs the plugin and

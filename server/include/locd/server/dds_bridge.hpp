@@ -40,6 +40,9 @@ class DdsBridge : public OutputSink {
                        const UpdateResult& result, double update_ms) override;
   void publish_server_info(const ServerInfoReport& info) override;
 
+  // The bridge's participant, shared with the ROS 2 bridge (one participant per server).
+  const dds::Participant& participant() const { return participant_; }
+
  private:
   static constexpr size_t kMaxRobotsTracked = 65536;
   struct Readers;

@@ -17,6 +17,7 @@
 #include "locd/server/resume.hpp"
 #include "locd/server/server_config.hpp"
 #include "locd/server/session.hpp"
+#include "locd/server/session_observer.hpp"
 #include "locd/server/worker_pool.hpp"
 
 namespace locd::server {
@@ -35,6 +36,9 @@ class Server {
   ~Server();
   Server(const Server&) = delete;
   Server& operator=(const Server&) = delete;
+
+  // Told of every plugin config configured and every session ended (the ROS 2 bridge); before boot().
+  void set_session_observer(SessionObserver* observer) { observer_ = observer; }
 
   // Publishes ServerInfo and starts the boot sessions of the config.
   void boot();
@@ -85,6 +89,7 @@ class Server {
   const PluginCatalog& catalog_;
   OutputSink& sink_;
   Logger& logger_;
+  SessionObserver* observer_ = nullptr;
   WorkerPool pool_;
   PluginWorkers workers_;
   SessionEnvironment environment_;
