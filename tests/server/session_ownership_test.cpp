@@ -45,9 +45,11 @@ class SessionOwnershipTest : public ::testing::Test {
   SessionOwnershipTest() : catalog_({LOCD_BROKEN_PLUGIN_DIR}) {
     config_.server_id = "ownership-test";
     config_.session_grace_s = 0.2;
+    config_.plugin_workers.executable = LOCD_WORKER_EXECUTABLE;
     BootSession boot;
     boot.robot_id = "booted";
     boot.config.plugin = "fixture_odometry";
+    boot.text = {"plugin: fixture_odometry\n", "test", {}};
     boot.source = "test";
     config_.sessions.push_back(boot);
     logger_.set_level(LogLevel::kError);
