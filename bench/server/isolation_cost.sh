@@ -39,7 +39,7 @@ EOF
   run "$build/bin/locd" --config "$work/locd.yaml" > "$work/locd.log" 2>&1 &
   sleep 2  # loading the plugins on a busy machine
   local probe
-  probe=$(run "$build/bin/locd_latency_probe" 91 3000 5 2>&1 | tail -2 | tr '\n' ' ' || true)
+  probe=$(run "$PWD/build/bin/locd_latency_probe" 91 3000 5 2>&1 | tail -2 | tr '\n' ' ' || true)
   pkill -TERM -f "$build/bin/locd --config $work/locd.yaml" || true
   wait 2>/dev/null || true
   # Corridor, with the server's CPU (children included: bash's time reports wait4's rusage).
