@@ -201,3 +201,31 @@ TEST(ParticleFilterCore, ClusterMomentsMatchTheDirectFormula) {
 }
 
 }  // namespace
+
+namespace {
+
+// The ziggurat's samples against the standard normal: moments and the CDF at fixed points.
+TEST(ZigguratNormal, MomentsAndDistributionOfTheStandardNormal) {
+  const locd::ZigguratNormal normal;
+  std::mt19937_64 rng(17);
+  const int n = 2'000'000;
+  double sum = 0.0, sum2 = 0.0, sum4 = 0.0;
+  const double edges[] = {-3.5, -2.0, -1.0, -0.3, 0.0, 0.3, 1.0, 2.0, 3.5};
+  std::vector<int> below(std::size(edges), 0);
+  for (int i = 0; i < n; ++i) {
+    const double x = normal(rng);
+    sum += x;
+    sum2 += x * x;
+    sum4 += x * x * x * x;
+    for (size_t k = 0; k < std::size(edges); ++k) below[k] += x < edges[k];
+  }
+  EXPECT_NEAR(sum / n, 0.0, 4.0 / std::sqrt(n));
+  EXPECT_NEAR(sum2 / n, 1.0, 4.0 * std::sqrt(2.0 / n));
+  EXPECT_NEAR(sum4 / n, 3.0, 4.0 * std::sqrt(96.0 / n));
+  for (size_t k = 0; k < std::size(edges); ++k) {
+    const double p = 0.5 * std::erfc(-edges[k] / std::sqrt(2.0));
+    EXPECT_NEAR(static_cast<double>(below[k]) / n, p, 4.0 * std::sqrt(p * (1 - p) / n) + 1e-9) << edges[k];
+  }
+}
+
+}  // namespace
