@@ -23,7 +23,9 @@ namespace {
 const char* kUsage =
     "usage:\n"
     "  locsim run SCENARIO.yaml [--json] [--plot FILE.png] [--plugin-dir DIR] [--seed N] [--duration S]\n"
-    "      offline: the scenario straight through the plugin, no DDS\n"
+    "             [--rawlog FILE.rawlog]\n"
+    "      offline: the scenario straight through the plugin, no DDS; --rawlog also writes the run\n"
+    "      as an MRPT rawlog (laser scenarios; needs carmen2rawlog from mrpt-apps)\n"
     "  locsim live SCENARIO.yaml [--domain N] [--rate X] [--duration S] [--seed N] [--json] [--plot FILE.png]\n"
     "              [--server-timeout S]\n"
     "      real time against a running locd (DDS through CYCLONEDDS_URI); --rate 2 runs twice as fast;\n"
@@ -90,6 +92,7 @@ Command parse(const std::vector<std::string>& args) {
   if (mode == "run" || mode == "montecarlo") {
     app.add_option("--plugin-dir", text.plugin_directories)->expected(1)->take_all();
   }
+  if (mode == "run") app.add_option("--rawlog", c.rawlog_file);
   if (mode == "live") {
     app.add_option("--domain", text.domain);
     app.add_option("--server-timeout", text.server_timeout);
