@@ -13,14 +13,14 @@
 // Run: build/bin/grid_mcl_accuracy_bench   (several minutes on one core)
 #include <benchmark/benchmark.h>
 
-#include "scenario_runs.hpp"
+#include "locd/sim_grid_mcl/scenario_runs.hpp"
 
 namespace {
 
 using namespace locd;
-using namespace locd::bench;
+using namespace locd::sim::grid;
 
-std::string scenario_file(int64_t which) { return scenario_path(which == 0 ? "corridor_grid.yaml" : "warehouse.yaml"); }
+std::string scenario_file(int64_t which) { return std::string(LOCD_SOURCE_DIR) + "/config/scenarios/" + (which == 0 ? "corridor_grid.yaml" : "warehouse.yaml"); }
 
 void BM_Tracking(benchmark::State& state) {
   const double duration = state.range(0) == 0 ? 120.0 : 180.0;

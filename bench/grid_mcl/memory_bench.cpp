@@ -12,7 +12,7 @@
 
 #include <memory>
 
-#include "scenario_runs.hpp"
+#include "locd/sim_grid_mcl/scenario_runs.hpp"
 
 namespace {
 
@@ -24,7 +24,7 @@ size_t heap_in_use() {
 }
 
 void BM_SessionsOnOneMap(benchmark::State& state) {
-  const sim::Scenario scenario = sim::load_scenario(bench::scenario_path("warehouse.yaml"));
+  const sim::Scenario scenario = sim::load_scenario(std::string(LOCD_SOURCE_DIR) + "/config/scenarios/warehouse.yaml");
   PluginContext context;
   context.maps = MapResolver(scenario.map_directories);
   sim::Simulation simulation(scenario, 1, 1.0);

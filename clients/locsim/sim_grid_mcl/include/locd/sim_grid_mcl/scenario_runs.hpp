@@ -1,4 +1,5 @@
-// Drives a locsim grid scenario through grid_mcl's Localizer in-process (as `locsim run` does,
+// Drives a locsim grid scenario through grid_mcl's Localizer in-process (the benchmarks' and the
+// tests' runs) (as `locsim run` does,
 // every measurement through locd::validate first) and scores every estimate against the truth:
 //   tracking   the scenario's initial pose (truth + offset, with its stddev)
 //   global     an initial pose whose stddev reaches global_localization_stddev: a uniform start
@@ -25,7 +26,7 @@
 #include "locd/sim/simulation.hpp"
 #include "localizer.hpp"
 
-namespace locd::bench {
+namespace locd::sim::grid {
 
 struct RunSpec {
   std::string scenario_file;
@@ -51,10 +52,10 @@ struct RunTrace {
   double update_ms_sum = 0.0;        // scans only
   size_t scans = 0;
   size_t max_particles = 0;
+  size_t relocalizations = 0;        // scans on which the filter restarted global localization
   LocalizationState last_state = LocalizationState::kUnknown;
 };
 
-inline std::string scenario_path(const std::string& name) { return std::string(LOCD_SOURCE_DIR) + "/config/scenarios/" + name; }
 
 inline RunTrace run_scenario(const RunSpec& spec) {
   const sim::Scenario scenario = sim::load_scenario(spec.scenario_file);
@@ -123,6 +124,7 @@ inline RunTrace run_scenario(const RunSpec& spec) {
     if (r.localization) {
       state = r.localization->state;
       reason = r.localization->reason;
+      if (reason.find("global relocalization") != std::string::npos) ++trace.relocalizations;
     }
     if (!r.estimate) continue;
     const Pose2 e = Pose2::from_isometry(r.estimate->pose);
@@ -163,4 +165,4 @@ inline double mean(const std::vector<double>& v) {
   return v.empty() ? NAN : std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
 }
 
-}  // namespace locd::bench
+}  // namespace locd::sim::grid
