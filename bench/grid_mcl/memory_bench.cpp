@@ -1,7 +1,8 @@
 // Memory of grid_mcl sessions on one map (the warehouse, 2120 x 2120 cells), measured as heap in
 // use (glibc mallinfo2: small and mmapped blocks) around the Localizers' creation in one process:
 // one session (configure: map, distance field, particles), then 99 more on the same map, each
-// given the start pose and 25 scans (tracking, the particle count down to min_particles).
+// given the start pose and 6 s of the drive (150 scans: tracking, the set down to about
+// min_particles).
 //   per_session = (heap with 100 sessions - heap with 1) / 99
 //   shared_map  = heap with 1 session - heap before - per_session
 // and, for comparison, what the structures themselves count (SharedMap::memory_bytes,
@@ -27,7 +28,7 @@ void BM_SessionsOnOneMap(benchmark::State& state) {
   const sim::Scenario scenario = sim::load_scenario(std::string(LOCD_SOURCE_DIR) + "/config/scenarios/warehouse.yaml");
   PluginContext context;
   context.maps = MapResolver(scenario.map_directories);
-  sim::Simulation simulation(scenario, 1, 1.0);
+  sim::Simulation simulation(scenario, 1, 6.0);
   std::vector<Measurement> measurements;
   while (auto m = simulation.next()) measurements.push_back(m->measurement);
   const PoseEstimate start = simulation.initial_pose();

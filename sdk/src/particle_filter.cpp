@@ -36,6 +36,7 @@ size_t PoseBinCounter::count(const std::vector<PoseParticle>& particles) {
   constexpr uint64_t kEmpty = ~uint64_t{0};  // a key uses 63 bits, never all ones
   size_t capacity = 16;
   while (capacity < 2 * particles.size()) capacity *= 2;
+  if (table_.capacity() > 4 * capacity) std::vector<uint64_t>().swap(table_);  // the set shrank: give memory back
   table_.assign(capacity, kEmpty);
   const size_t mask = capacity - 1;
   int shift = 64;

@@ -232,6 +232,10 @@ void GridParticleFilter::weigh(const PreparedScan& scan, CorrectionReport& repor
   laser_.prepare(scan);
   report.beams = scan.hits();
   const size_t n = particles_.size();
+  if (factors_.capacity() > 4 * n + 4096) {  // the set shrank (a global start is over): give memory back
+    std::vector<double>().swap(factors_);
+    std::vector<double>().swap(measures_);
+  }
   factors_.resize(n);
   measures_.resize(n);
   constexpr size_t kChunk = 2048;
@@ -311,7 +315,7 @@ std::optional<ParticleCluster> GridParticleFilter::estimate_at(const Pose2& odom
 }
 
 size_t GridParticleFilter::memory_bytes() const {
-  return sizeof(*this) + particles_.capacity() * sizeof(PoseParticle) +
+  return sizeof(*this) + particles_.capacity() * sizeof(PoseParticle) + bins_.memory_bytes() +
          (factors_.capacity() + measures_.capacity()) * sizeof(double) + 2 *
          laser_.table_size() * sizeof(float);
 }

@@ -48,6 +48,7 @@ class PoseBinCounter {
   explicit PoseBinCounter(const Eigen::Vector3d& bin_size);
   size_t count(const std::vector<PoseParticle>& particles);
   const Eigen::Vector3d& bin_size() const { return bin_size_; }
+  size_t memory_bytes() const { return table_.capacity() * sizeof(uint64_t); }
 
  private:
   Eigen::Vector3d bin_size_;
