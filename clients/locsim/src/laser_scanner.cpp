@@ -21,7 +21,7 @@ LaserScannerConfig LaserScannerConfig::from_params(const Params& p) {
   return c;
 }
 
-LaserScannerModel::LaserScannerModel(const LaserScannerConfig& config, std::shared_ptr<const SegmentWorld> world)
+LaserScannerModel::LaserScannerModel(const LaserScannerConfig& config, std::shared_ptr<const RangeWorld> world)
     : config_(config), world_(std::move(world)) {}
 
 Measurement LaserScannerModel::measure(const TruthSample& truth, int64_t stamp_ns, std::mt19937_64& rng) {

@@ -7,6 +7,7 @@
 
 #include "locd/sdk/plugin.hpp"
 #include "locd/sdk/plugin_config.hpp"
+#include "locd/sim/grid_world.hpp"
 
 namespace locd::sim {
 
@@ -90,7 +91,21 @@ Scenario parse_scenario(const std::string& text, const std::string& source, cons
   } catch (const ConfigError& e) {
     p.fail("map", std::string("cannot be used: ") + e.what());
   }
-  s.map = load_feature_map(s.map_file.string(), 100000);
+  if (is_occupancy_map_yaml(s.map_file)) {
+    // A map_server map: its image resolves next to the YAML, in the map directories as well.
+    const fs::path folder = fs::path(s.map_name).parent_path();
+    const MapResolver resolver(s.map_directories);
+    try {
+      s.world = std::make_shared<GridWorld>(std::make_shared<grid_mcl::OccupancyMap>(grid_mcl::load_occupancy_map(
+          s.map_file, [&](const std::string& image) { return resolver.resolve((folder / image).lexically_normal().string()); },
+          Limits{}.max_map_cells)));
+    } catch (const ConfigError& e) {
+      p.fail("map", std::string("cannot be used: ") + e.what());
+    }
+  } else {
+    s.map = load_feature_map(s.map_file.string(), 100000);
+    s.world = std::make_shared<SegmentWorld>(SegmentWorld::from_feature_map(s.map));
+  }
 
   if (!p.has("robot")) p.fail("robot", "is missing; expected {id, start, waypoints, ...}");
   s.robot = parse_robot(p.child("robot"));

@@ -10,6 +10,7 @@
 #include "locd/sim/scenario.hpp"
 #include "locd/sim_emoi_markov/four_positions.hpp"
 #include "locd/sim_feature_ekf/montecarlo.hpp"
+#include "locd/sim_grid_mcl/rawlog_export.hpp"
 #include "locd/sim_icp_explorer/exploration_mission.hpp"
 
 namespace locd::sim {
@@ -52,6 +53,10 @@ int segment_world_run(const Command& c) {
     log_stream(c) << "recording: " << c.mcap_file << "\n";
   }
   report_run(result, scenario.map, c.json, c.plot_file);
+  if (!c.rawlog_file.empty()) {
+    const grid::RawlogExport e = grid::export_rawlog(scenario, result.seed, result.duration_s, c.rawlog_file);
+    log_stream(c) << "rawlog: " << e.rawlog.string() << " (" << e.scans << " scans; truth " << e.truth.string() << ")\n";
+  }
   return result.summary.updates > 0 ? 0 : 1;
 }
 

@@ -7,7 +7,7 @@
 namespace locd::sim {
 
 std::vector<std::unique_ptr<SensorModel>> make_sensor_models(const Params& sensors,
-                                                             std::shared_ptr<const SegmentWorld> world) {
+                                                             std::shared_ptr<const RangeWorld> world) {
   sensors.expect_only({"odometry", "laser", "ceiling_camera"});
   std::vector<std::unique_ptr<SensorModel>> models;
   // Odometry first: at equal stamps a plugin predicts before it corrects.

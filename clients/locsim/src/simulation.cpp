@@ -19,7 +19,7 @@ Simulation::Simulation(const Scenario& scenario, uint64_t seed, double duration_
       initial_stddev_(scenario.localizer.initial_stddev),
       duration_(duration_s),
       origin_ns_(stamp_origin_ns),
-      world_(std::make_shared<SegmentWorld>(SegmentWorld::from_feature_map(scenario.map))),
+      world_(scenario.world ? scenario.world : std::make_shared<SegmentWorld>(SegmentWorld::from_feature_map(scenario.map))),
       truth_(Trajectory::generate(scenario.robot, duration_s, truth_sample_period(scenario.sensors))) {
   sensors_ = make_sensor_models(scenario.sensors, world_);
   for (size_t i = 0; i < sensors_.size(); ++i) {

@@ -129,7 +129,7 @@ UpdateResult CeilingPfLocalizer::correct(const Header& header, const std::vector
               {"likelihood_slow", filter_->slow_average()},
               {"likelihood_fast", filter_->fast_average()},
               {"rejected_inputs", static_cast<double>(rejected_)}};
-  if (const auto e = filter_->estimate()) d.values.push_back({"cluster_mass", e->cluster_mass});
+  if (const auto e = filter_->estimate()) d.values.push_back({"cluster_mass", e->mass});
   for (size_t i = 0; i < report.associations.size(); ++i) {
     const Association& a = report.associations[i];
     d.associations.push_back({static_cast<uint32_t>(i), a.landmark >= 0 ? map_.id(static_cast<size_t>(a.landmark)) : "",

@@ -86,44 +86,6 @@ TEST(CeilingPfAssociation, LikelihoodIsTheProductOfRangeAndBearingGaussians) {
   EXPECT_NEAR(filter.log_likelihood(Pose2(-0.03, -0.04, 0.0), {z}), 0.0, 1e-6) << "perfect fit";
 }
 
-TEST(CeilingPfResampling, LowVarianceKeepsTheWeightedMean) {
-  std::mt19937_64 rng(11);
-  std::uniform_real_distribution<double> x(-5, 5), w(0, 1);
-  std::vector<double> values(200), weights(200);
-  for (size_t i = 0; i < values.size(); ++i) {
-    values[i] = x(rng);
-    weights[i] = std::pow(w(rng), 4);  // skewed weights
-  }
-  double wsum = 0, wmean = 0;
-  for (size_t i = 0; i < values.size(); ++i) {
-    wsum += weights[i];
-    wmean += weights[i] * values[i];
-  }
-  wmean /= wsum;
-  const int repeats = 4000;
-  double mean_of_means = 0.0, spread = 0.0;
-  for (int r = 0; r < repeats; ++r) {
-    const auto picks = low_variance_resample(weights, 200, rng);
-    double m = 0;
-    for (size_t i : picks) m += values[i];
-    m /= static_cast<double>(picks.size());
-    mean_of_means += m;
-    spread += (m - wmean) * (m - wmean);
-  }
-  mean_of_means /= repeats;
-  const double standard_error = std::sqrt(spread / repeats / repeats);
-  EXPECT_NEAR(mean_of_means, wmean, 4.0 * standard_error + 1e-12);
-  EXPECT_GT(standard_error, 0.0);
-}
-
-TEST(CeilingPfKldSampling, BoundFollowsTheChiSquareApproximation) {
-  EXPECT_EQ(CeilingParticleFilter::kld_particles(1, 0.05, 0.99), 0u);
-  // Fox 2003: n = chi2_{k-1, 1-delta} / (2 epsilon); chi2(0.99, 1) = 6.635, chi2(0.99, 100) = 135.8.
-  EXPECT_NEAR(static_cast<double>(CeilingParticleFilter::kld_particles(2, 0.05, 0.99)), 66.35, 1.5);
-  EXPECT_NEAR(static_cast<double>(CeilingParticleFilter::kld_particles(101, 0.05, 0.99)), 1358.0, 5.0);
-  EXPECT_LT(CeilingParticleFilter::kld_particles(50, 0.05, 0.99), CeilingParticleFilter::kld_particles(51, 0.05, 0.99));
-}
-
 TEST(CeilingPfFilter, FramesWithZeroOrOneDetectionKeepItRunning) {
   const auto grid = square_grid(6, 3.0);
   auto index = std::make_shared<NearestLandmarkIndex>(grid, 3, 0.5, 4.0, 1'000'000);

@@ -4,11 +4,9 @@
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
-#include <unordered_set>
 
 #include "locd/sdk/errors.hpp"
 #include "locd/sdk/gaussian.hpp"
-#include "locd/sdk/resampling.hpp"
 
 namespace locd::ceiling_pf {
 
@@ -31,7 +29,14 @@ Detection Detection::from_point(const Eigen::Vector2d& p) {
 CeilingParticleFilter::CeilingParticleFilter(const ParticleFilterConfig& config,
                                              std::shared_ptr<const NearestLandmarkIndex> index,
                                              const VelocityMotionModel& motion)
-    : config_(config), index_(std::move(index)), motion_(motion), rng_(config.seed) {
+    : config_(config),
+      index_(std::move(index)),
+      motion_(motion),
+      rng_(config.seed),
+      kld_{config.kld_sampling, config.particles, config.min_particles, config.max_particles,
+           config.kld_epsilon,  config.kld_quantile, config.kld_bin},
+      bins_(config.kld_bin),
+      recovery_(config.alpha_slow, config.alpha_fast) {
   if (!index_) throw ConfigError("CeilingParticleFilter needs a landmark index");
   if (config_.candidates < 1 || config_.candidates > kMaxCandidates) {
     throw ConfigError("ceiling_pf: candidates = " + std::to_string(config_.candidates) + " is out of range; allowed: [1, " +
@@ -78,7 +83,7 @@ void CeilingParticleFilter::set_pose(const Pose2& mean, const Eigen::Matrix3d& c
     p.weight = w;
   }
   mode_ = mean;
-  w_slow_ = w_fast_ = 0.0;
+  recovery_.reset();
   just_injected_.clear();
   localized_ = true;
 }
@@ -87,21 +92,14 @@ void CeilingParticleFilter::set_unknown() {
   particles_.clear();
   localized_ = false;
   mode_.reset();
-  w_slow_ = w_fast_ = 0.0;
+  recovery_.reset();
 }
 
 void CeilingParticleFilter::set_particles(std::vector<Particle> particles) {
   particles_ = std::move(particles);
   just_injected_.clear();
-  normalize_weights();
+  normalize_weights(particles_);
   mode_.reset();
-}
-
-void CeilingParticleFilter::normalize_weights() {
-  double sum = 0.0;
-  for (const Particle& p : particles_) sum += p.weight;
-  const double uniform = particles_.empty() ? 0.0 : 1.0 / static_cast<double>(particles_.size());
-  for (Particle& p : particles_) p.weight = sum > 0.0 ? p.weight / sum : uniform;
 }
 
 void CeilingParticleFilter::predict(const VelocityCommand& u) {
@@ -167,7 +165,7 @@ CorrectionReport CeilingParticleFilter::correct(const std::vector<Detection>& de
     particles_.clear();
     for (const Pose2& p : poses) particles_.push_back({p, 1.0 / static_cast<double>(poses.size())});
     report.global_start = true;
-    w_slow_ = w_fast_ = 0.0;
+    recovery_.reset();
     just_injected_.clear();
   }
   const size_t n = particles_.size();
@@ -186,43 +184,32 @@ CorrectionReport CeilingParticleFilter::correct(const std::vector<Detection>& de
   }
   const double log_marginal = log_sum_exp(log_w);
   report.mean_likelihood = settled_prior > 0.0 ? explained_sum / settled_prior : 0.0;
-  if (w_slow_ <= 0.0 || w_fast_ <= 0.0) {
-    w_slow_ = w_fast_ = report.mean_likelihood;
-  } else {
-    w_slow_ += config_.alpha_slow * (report.mean_likelihood - w_slow_);
-    w_fast_ += config_.alpha_fast * (report.mean_likelihood - w_fast_);
-  }
+  recovery_.update(report.mean_likelihood);
   for (size_t m = 0; m < n; ++m) particles_[m].weight = std::exp(log_w[m] - log_marginal);
-  normalize_weights();
-  std::vector<double> weights(n);
-  for (size_t m = 0; m < n; ++m) weights[m] = particles_[m].weight;
-  report.effective_sample_size = effective_sample_size(weights);
+  normalize_weights(particles_);
+  report.effective_sample_size = effective_sample_size(particles_);
 
-  const size_t best = static_cast<size_t>(std::max_element(weights.begin(), weights.end()) - weights.begin());
+  const size_t best = static_cast<size_t>(
+      std::max_element(particles_.begin(), particles_.end(),
+                       [](const Particle& a, const Particle& b) { return a.weight < b.weight; }) -
+      particles_.begin());
   log_likelihood(particles_[best].pose, detections, &report.associations);
-  // The mode: the heavier of the clusters around the previous mode and around the best
-  // particle (a lone particle that fits one detection must not move the estimate).
-  FilterEstimate around_best = cluster_estimate(particles_[best].pose);
-  if (mode_) {
-    const FilterEstimate around_previous = cluster_estimate(*mode_);
-    if (around_previous.cluster_mass >= around_best.cluster_mass) around_best = around_previous;
-  }
+  // The mode: the heavier of the clusters around the previous mode and around the best particle.
+  const FilterEstimate around_best = main_cluster(particles_, config_.cluster_radius, mode_);
   mode_ = around_best.pose;
 
   // Table 8.3's max(0, 1 - w_fast / w_slow), only once the short-term average has fallen well
   // below the long-term one: the fit of a well-localized set also swings with the geometry (one
   // landmark near the image centre, turns), and with a single landmark in view every injected
   // particle fits as well as the true ones, so small injections would erode the true cluster.
-  const double ratio = w_slow_ > 0.0 ? w_fast_ / w_slow_ : 1.0;
-  report.injection_probability =
-      config_.recovery && 1.0 - ratio >= config_.min_injection_probability ? 1.0 - ratio : 0.0;
+  report.injection_probability = config_.recovery ? recovery_.injection_probability(config_.min_injection_probability) : 0.0;
   // Until one hypothesis holds half the weight after a global start or a kidnapping, keep
   // drawing some particles from the detections: a frame with two landmarks in view fixes the
   // pose, and the hypotheses the first frames gave may all be wrong. A localized filter whose
   // cluster thins out for a moment does not do this (the injected particles would keep the
   // cluster's share low and so keep injecting).
   if (report.global_start || report.injection_probability > 0.0) localized_ = false;
-  if (around_best.cluster_mass >= 0.5) localized_ = true;
+  if (around_best.mass >= 0.5) localized_ = true;
   if (config_.recovery && !localized_) {
     report.injection_probability = std::max(report.injection_probability, config_.ambiguous_injection);
   }
@@ -233,63 +220,17 @@ CorrectionReport CeilingParticleFilter::correct(const std::vector<Detection>& de
   return report;
 }
 
-size_t CeilingParticleFilter::kld_particles(size_t k, double epsilon, double quantile) {
-  if (k <= 1) return 0;
-  // Upper standard normal quantile z_{1-delta} from the chi-square(1) quantile.
-  const double z = std::sqrt(chi_square_quantile(2.0 * quantile - 1.0, 1));
-  const double a = 2.0 / (9.0 * static_cast<double>(k - 1));
-  const double b = 1.0 - a + std::sqrt(a) * z;
-  return static_cast<size_t>(std::ceil(static_cast<double>(k - 1) / (2.0 * epsilon) * b * b * b));
-}
-
-size_t CeilingParticleFilter::occupied_bins(const std::vector<Particle>& particles) const {
-  std::unordered_set<uint64_t> bins;
-  bins.reserve(particles.size() * 2);
-  for (const Particle& p : particles) {
-    const auto ix = static_cast<int64_t>(std::floor(p.pose.x / config_.kld_bin.x()));
-    const auto iy = static_cast<int64_t>(std::floor(p.pose.y / config_.kld_bin.y()));
-    const auto it = static_cast<int64_t>(std::floor(p.pose.theta / config_.kld_bin.z()));
-    bins.insert((static_cast<uint64_t>(ix & 0x1FFFFF) << 42) | (static_cast<uint64_t>(iy & 0x1FFFFF) << 21) |
-                static_cast<uint64_t>(it & 0x1FFFFF));
-  }
-  return bins.size();
-}
-
 void CeilingParticleFilter::resample(const std::vector<Detection>& detections, CorrectionReport& report) {
-  std::vector<double> weights(particles_.size());
-  for (size_t m = 0; m < particles_.size(); ++m) weights[m] = particles_[m].weight;
-  const double p_inject = report.injection_probability;
-  size_t count = config_.kld_sampling ? std::clamp(particles_.size(), config_.min_particles, config_.max_particles)
-                                      : config_.particles;
-  std::vector<Particle> next;
-  // KLD: grow the set until it is large enough for the bins it occupies (new particles
-  // included, so a spread of injected particles asks for more).
-  for (int round = 0; round < 8; ++round) {
-    const size_t injected = static_cast<size_t>(std::lround(p_inject * static_cast<double>(count)));
-    const std::vector<size_t> picks = low_variance_resample(weights, count - injected, rng_);
-    next.clear();
-    next.reserve(count);
-    const double w = 1.0 / static_cast<double>(count);
-    for (size_t i : picks) next.push_back({particles_[i].pose, w});
-    for (const Pose2& p : sample_from_detections(detections, injected)) next.push_back({p, w});
-    report.injected = injected;
-    if (!config_.kld_sampling) break;
-    const size_t needed = std::clamp(kld_particles(occupied_bins(next), config_.kld_epsilon, config_.kld_quantile),
-                                     config_.min_particles, config_.max_particles);
-    if (needed == count) break;
-    if (needed < count) {
-      if (round > 0 && needed > count / 2) break;  // grown already: keep, no oscillation
-      count = needed;
-      continue;
-    }
-    count = std::min(config_.max_particles,
-                     std::max(needed, static_cast<size_t>(1.5 * static_cast<double>(count))));
-    if (count == next.size()) break;
-  }
-  particles_ = std::move(next);
+  // KLD: the set grows until it is large enough for the bins it occupies, injected particles
+  // included (a spread of injected particles asks for more).
+  report.injected = kld_resample(
+      particles_, kld_, report.injection_probability,
+      [&](size_t count, std::vector<Particle>& out) {
+        for (const Pose2& p : sample_from_detections(detections, count)) out.push_back({p, 0.0});
+      },
+      bins_, rng_);
   just_injected_.assign(particles_.size(), false);
   std::fill(just_injected_.end() - static_cast<std::ptrdiff_t>(report.injected), just_injected_.end(), true);
-  normalize_weights();
   report.resampled = true;
 }
 
@@ -345,59 +286,15 @@ std::vector<Pose2> CeilingParticleFilter::sample_from_detections(const std::vect
   return poses;
 }
 
-FilterEstimate CeilingParticleFilter::cluster_estimate(const Pose2& seed) const {
-  FilterEstimate e;
-  const double r2 = config_.cluster_radius * config_.cluster_radius;
-  Eigen::Vector2d centre(seed.x, seed.y);
-  double mass = 0.0;
-  for (int iteration = 0; iteration < 4; ++iteration) {
-    Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-    mass = 0.0;
-    for (const Particle& p : particles_) {
-      const Eigen::Vector2d q(p.pose.x, p.pose.y);
-      if ((q - centre).squaredNorm() > r2) continue;
-      sum += p.weight * q;
-      mass += p.weight;
-    }
-    if (!(mass > 0.0)) break;
-    const Eigen::Vector2d next = sum / mass;
-    const bool settled = (next - centre).squaredNorm() < 1e-8;
-    centre = next;
-    if (settled) break;
-  }
-  double sc = 0.0, ss = 0.0;
-  for (const Particle& p : particles_) {
-    if ((Eigen::Vector2d(p.pose.x, p.pose.y) - centre).squaredNorm() > r2) continue;
-    sc += p.weight * std::cos(p.pose.theta);
-    ss += p.weight * std::sin(p.pose.theta);
-  }
-  e.pose = Pose2(centre.x(), centre.y(), mass > 0.0 ? std::atan2(ss, sc) : seed.theta);
-  e.cluster_mass = mass;
-  // Covariance of the cluster; when most weight lies elsewhere, of the whole set about the
-  // cluster's mean (the ambiguity stays visible).
-  const bool whole = mass < 0.5;
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  double total = 0.0;
-  for (const Particle& p : particles_) {
-    const Eigen::Vector3d d(p.pose.x - centre.x(), p.pose.y - centre.y(), normalize_angle(p.pose.theta - e.pose.theta));
-    if (!whole && d.head<2>().squaredNorm() > r2) continue;
-    cov += p.weight * d * d.transpose();
-    total += p.weight;
-  }
-  if (total > 0.0) cov /= total;
-  e.covariance = cov + Eigen::Matrix3d::Identity() * 1e-9;
-  return e;
-}
-
 std::optional<FilterEstimate> CeilingParticleFilter::estimate() const {
   if (particles_.empty()) return std::nullopt;
   if (mode_) {
-    FilterEstimate e = cluster_estimate(*mode_);
-    if (e.cluster_mass > 0.0) return e;
+    FilterEstimate e = cluster_around(particles_, *mode_, config_.cluster_radius);
+    if (e.mass > 0.0) return e;
   }
   const auto best = std::max_element(particles_.begin(), particles_.end(),
                                      [](const Particle& a, const Particle& b) { return a.weight < b.weight; });
-  return cluster_estimate(best->pose);
+  return cluster_around(particles_, best->pose, config_.cluster_radius);
 }
 
 }  // namespace locd::ceiling_pf

@@ -50,6 +50,20 @@ class GaussianSampler {
   mutable std::normal_distribution<double> normal_{0.0, 1.0};
 };
 
+// Standard normal deviates by Marsaglia & Tsang's ziggurat ("The Ziggurat Method for Generating
+// Random Variables", 2000; 128 layers): one 64-bit draw and a table lookup for about 98 % of the
+// samples, several times faster than std::normal_distribution's polar method, for samplers that
+// draw millions per second (a particle filter's motion model).
+class ZigguratNormal {
+ public:
+  ZigguratNormal();
+  double operator()(std::mt19937_64& rng) const;
+
+ private:
+  double x_[129];  // layer edges, x_[0] = v / f(r) (the base strip with its tail), x_[1] = r, x_[128] = 0
+  double f_[129];  // exp(-x^2 / 2) at the edges
+};
+
 // Gaussian density exp(-0.5 * e^2 / sigma^2) / (sqrt(2 pi) sigma).
 double normal_pdf(double error, double sigma);
 

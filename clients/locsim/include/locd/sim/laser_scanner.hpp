@@ -25,7 +25,7 @@ struct LaserScannerConfig {
 
 class LaserScannerModel : public SensorModel {
  public:
-  LaserScannerModel(const LaserScannerConfig& config, std::shared_ptr<const SegmentWorld> world);
+  LaserScannerModel(const LaserScannerConfig& config, std::shared_ptr<const RangeWorld> world);
   const std::string& name() const override { return name_; }
   double rate_hz() const override { return config_.rate_hz; }
   Measurement measure(const TruthSample& truth, int64_t stamp_ns, std::mt19937_64& rng) override;
@@ -36,7 +36,7 @@ class LaserScannerModel : public SensorModel {
  private:
   std::string name_ = "laser";
   LaserScannerConfig config_;
-  std::shared_ptr<const SegmentWorld> world_;
+  std::shared_ptr<const RangeWorld> world_;
 };
 
 }  // namespace locd::sim

@@ -1,5 +1,5 @@
-// A scenario: the world (a feature map), one robot following waypoints, its sensors and the
-// localizer it runs. Parsed with locd::Params, so every error names the key, where it stands and
+// A scenario: the world (a feature map of walls, or a map_server occupancy grid), one robot
+// following waypoints, its sensors and the localizer it runs. Parsed with locd::Params, so every error names the key, where it stands and
 // what is allowed.
 //
 //   name: corridor
@@ -17,6 +17,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,8 @@
 #include "locd/sdk/params.hpp"
 
 namespace locd::sim {
+
+class RangeWorld;
 
 struct RobotSpec {
   std::string id = "robot";
@@ -54,7 +57,8 @@ struct Scenario {
   std::string map_name;
   std::vector<std::filesystem::path> map_directories;
   std::filesystem::path map_file;
-  FeatureMap2D map;
+  FeatureMap2D map;                         // walls of a feature map (empty for a grid world)
+  std::shared_ptr<const RangeWorld> world;  // what the laser sees: the walls or the grid
   RobotSpec robot;
   Params sensors;  // one child per sensor, validated by the sensor models
   LocalizerSpec localizer;

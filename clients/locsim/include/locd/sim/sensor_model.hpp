@@ -14,7 +14,7 @@
 
 namespace locd::sim {
 
-class SegmentWorld;
+class RangeWorld;
 
 class SensorModel {
  public:
@@ -27,6 +27,6 @@ class SensorModel {
 
 // Every sensor under `sensors` (laser, odometry); unknown names are an error listing the known.
 std::vector<std::unique_ptr<SensorModel>> make_sensor_models(const Params& sensors,
-                                                             std::shared_ptr<const SegmentWorld> world);
+                                                             std::shared_ptr<const RangeWorld> world);
 
 }  // namespace locd::sim

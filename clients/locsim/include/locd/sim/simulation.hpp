@@ -31,7 +31,7 @@ class Simulation {
   std::optional<SimulatedMeasurement> next();
 
   const Trajectory& truth() const { return truth_; }
-  std::shared_ptr<const SegmentWorld> world() const { return world_; }
+  std::shared_ptr<const RangeWorld> world() const { return world_; }
   double duration() const { return duration_; }
   int64_t stamp_of(double t) const;
   double time_of(int64_t stamp_ns) const;
@@ -44,7 +44,7 @@ class Simulation {
   Eigen::Vector3d initial_stddev_;
   double duration_;
   int64_t origin_ns_;
-  std::shared_ptr<const SegmentWorld> world_;
+  std::shared_ptr<const RangeWorld> world_;
   Trajectory truth_;
   std::vector<std::unique_ptr<SensorModel>> sensors_;
   std::vector<std::mt19937_64> random_;

@@ -1,7 +1,8 @@
-// The simulated world: wall segments and exact 2D ray casting against them. A uniform grid of
-// cells, each listing the segments whose bounding box overlaps it, lets a ray visit only the
-// cells it crosses (Amanatides & Woo traversal); cast_brute_force tests every segment and is
-// the reference the grid is checked against.
+// The simulated world: what a planar laser sees along a ray. RangeWorld is the interface the
+// sensors use; SegmentWorld casts exactly against wall segments (a uniform grid of cells, each
+// listing the segments whose bounding box overlaps it, lets a ray visit only the cells it
+// crosses, Amanatides & Woo; cast_brute_force tests every segment and is the reference);
+// GridWorld (grid_world.hpp) casts on an occupancy grid.
 #pragma once
 
 #include <Eigen/Core>
@@ -22,14 +23,20 @@ struct Segment {
 std::optional<double> ray_segment_distance(const Eigen::Vector2d& origin, const Eigen::Vector2d& direction,
                                            const Segment& segment);
 
-class SegmentWorld {
+class RangeWorld {
+ public:
+  virtual ~RangeWorld() = default;
+  // Range to the first obstacle along the ray from origin at angle (map frame), if within max_range.
+  virtual std::optional<double> cast(const Eigen::Vector2d& origin, double angle, double max_range) const = 0;
+};
+
+class SegmentWorld : public RangeWorld {
  public:
   explicit SegmentWorld(std::vector<Segment> segments, double cell_size_m = 1.0);
   // Every line of the map is a wall.
   static SegmentWorld from_feature_map(const FeatureMap2D& map, double cell_size_m = 1.0);
 
-  // Range to the first wall along the ray from origin at angle (map frame), if within max_range.
-  std::optional<double> cast(const Eigen::Vector2d& origin, double angle, double max_range) const;
+  std::optional<double> cast(const Eigen::Vector2d& origin, double angle, double max_range) const override;
   std::optional<double> cast_brute_force(const Eigen::Vector2d& origin, double angle, double max_range) const;
 
   const std::vector<Segment>& segments() const { return segments_; }

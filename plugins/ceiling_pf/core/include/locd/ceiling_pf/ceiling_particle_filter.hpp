@@ -1,7 +1,9 @@
 // The particle filter of the paper (section 3) on identical ceiling landmarks, plus what it
 // leaves out: an adaptive particle count (KLD sampling, Fox 2003), global localization without
 // an initial pose and recovery from kidnapping (augmented MCL, Probabilistic Robotics Table 8.3)
-// with new particles drawn from the detections themselves (sensor-based proposal).
+// with new particles drawn from the detections themselves (sensor-based proposal). Resampling,
+// KLD, w_slow/w_fast and the cluster estimate are the sdk's particle-filter core
+// (locd/sdk/particle_filter.hpp); the measurement model and the proposal are this filter's.
 //
 //   predict(u)          Table 2 on every particle
 //   correct(detections) Table 1 per particle and detection (most likely of the N landmarks
@@ -19,13 +21,11 @@
 #include "locd/ceiling_pf/landmark_map.hpp"
 #include "locd/ceiling_pf/velocity_motion_model.hpp"
 #include "locd/sdk/geometry.hpp"
+#include "locd/sdk/particle_filter.hpp"
 
 namespace locd::ceiling_pf {
 
-struct Particle {
-  Pose2 pose;
-  double weight = 0.0;
-};
+using Particle = PoseParticle;
 
 // A detection as the filter sees it: the ceiling point in base_link, and its range and bearing.
 struct Detection {
@@ -52,11 +52,8 @@ struct CorrectionReport {
   std::vector<Association> associations;  // of the best particle, one per detection
 };
 
-struct FilterEstimate {
-  Pose2 pose;
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  // x, y, yaw
-  double cluster_mass = 0.0;  // weight inside the cluster around the mode
-};
+// Pose, covariance (x, y, yaw) and the weight inside the cluster around the mode.
+using FilterEstimate = ParticleCluster;
 
 class CeilingParticleFilter {
  public:
@@ -82,11 +79,9 @@ class CeilingParticleFilter {
   const std::vector<Particle>& particles() const { return particles_; }
   void set_particles(std::vector<Particle> particles);  // weights normalised here
   const ParticleFilterConfig& config() const { return config_; }
-  double slow_average() const { return w_slow_; }
-  double fast_average() const { return w_fast_; }
+  double slow_average() const { return recovery_.slow(); }
+  double fast_average() const { return recovery_.fast(); }
 
-  // KLD bound (Fox 2003, eq. 12): particles needed for k occupied bins.
-  static size_t kld_particles(size_t occupied_bins, double epsilon, double quantile);
   // Poses drawn from the detections (pairs of detections matched to mapped landmark pairs of
   // the same distance; a single detection: a random landmark and heading).
   std::vector<Pose2> sample_from_detections(const std::vector<Detection>& detections, size_t count);
@@ -94,9 +89,6 @@ class CeilingParticleFilter {
 
  private:
   void resample(const std::vector<Detection>& detections, CorrectionReport& report);
-  size_t occupied_bins(const std::vector<Particle>& particles) const;
-  void normalize_weights();
-  FilterEstimate cluster_estimate(const Pose2& seed) const;
 
   ParticleFilterConfig config_;
   std::shared_ptr<const NearestLandmarkIndex> index_;
@@ -104,7 +96,9 @@ class CeilingParticleFilter {
   std::vector<Particle> particles_;
   std::vector<bool> just_injected_;  // drawn from detections at the last resampling
   std::mt19937_64 rng_;
-  double w_slow_ = 0.0, w_fast_ = 0.0;
+  KldResampling kld_;
+  PoseBinCounter bins_;
+  AugmentedMclRecovery recovery_;
   std::optional<Pose2> mode_;  // last mode, carried through predictions
   bool localized_ = false;     // one cluster has held half the weight since the last (re)start
   // Ordered landmark pairs (i, j) sorted by distance, for the detection proposal.

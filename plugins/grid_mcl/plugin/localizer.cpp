@@ -1,0 +1,147 @@
+#include "localizer.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+
+#include "params.hpp"
+
+namespace locd::grid_mcl {
+namespace {
+
+// A plugin pose is (x, y, z, roll, pitch, yaw); the filter holds (x, y, yaw).
+constexpr int kPlanarIndex[3] = {0, 1, 5};
+// The largest grid the grid topic carries (idl/locd.idl, GridMap.cells).
+constexpr size_t kMaxGridCells = 16'777'216;
+
+Eigen::Matrix3d diagonal_variance(const Eigen::Vector3d& stddev) { return stddev.cwiseAbs2().asDiagonal(); }
+
+}  // namespace
+
+void GridMclLocalizer::configure(const PluginContext& context, const Params& params) {
+  std::vector<std::string> ignored;
+  config_ = parse_config(params, context.limits, &ignored);
+  if (!ignored.empty()) {
+    std::string list;
+    for (const std::string& key : ignored) list += (list.empty() ? "" : ", ") + key;
+    context.log(LogLevel::kInfo, "grid_mcl: AMCL parameters without meaning in locd ignored: " + list);
+  }
+  std::filesystem::path yaml_file;
+  try {
+    yaml_file = context.maps.resolve(config_.map);
+  } catch (const ConfigError& e) {
+    params.fail("map", "= '" + config_.map + "' cannot be used: " + e.what());
+  }
+  // The image a map YAML names is relative to the YAML, and must lie in the map directories too.
+  const std::filesystem::path folder = std::filesystem::path(config_.map).parent_path();
+  const MapResolver& maps = context.maps;
+  auto map = load_shared_map(
+      yaml_file, [&](const std::string& image) { return maps.resolve((folder / image).lexically_normal().string()); },
+      context.limits.max_map_cells);
+  if (config_.publish_map && map->map.geometry().size() > kMaxGridCells) {
+    context.log(LogLevel::kWarning, "grid_mcl: map '" + config_.map + "' has more cells than the grid topic carries (" +
+                                        std::to_string(kMaxGridCells) + "); it is not published");
+  }
+  filter_ = std::make_unique<GridParticleFilter>(config_, std::move(map));
+  if (config_.initial_pose) {
+    filter_->set_pose(*config_.initial_pose, diagonal_variance(config_.initial_stddev));
+  } else {
+    filter_->set_global();
+  }
+  odometry_ = Pose2();
+}
+
+void GridMclLocalizer::set_pose(const PoseEstimate& pose) {
+  const Pose2 mean = Pose2::from_isometry(pose.pose);
+  if (!std::isfinite(mean.x) || !std::isfinite(mean.y) || !std::isfinite(mean.theta)) {
+    throw InputError("initial pose: position and yaw must be finite");
+  }
+  Eigen::Matrix3d cov;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) cov(r, c) = pose.covariance(kPlanarIndex[r], kPlanarIndex[c]);
+  const double global = config_.global_localization_stddev * config_.global_localization_stddev;
+  if (std::isfinite(cov(0, 0)) && std::isfinite(cov(1, 1)) && std::max(cov(0, 0), cov(1, 1)) >= global) {
+    filter_->set_global();
+    return;
+  }
+  const Eigen::LLT<Eigen::Matrix3d> llt(cov);
+  if (!cov.allFinite() || llt.info() != Eigen::Success) cov = diagonal_variance(config_.initial_stddev);
+  filter_->set_pose(mean, cov);
+}
+
+UpdateResult GridMclLocalizer::update(const Measurement& measurement) {
+  if (const auto* odometry = std::get_if<Odometry>(&measurement)) {
+    odometry_ = Pose2::from_isometry(odometry->pose);
+    UpdateResult result;
+    result.estimate = make_estimate(odometry->header);
+    return result;
+  }
+  if (const auto* scan = std::get_if<LaserScan>(&measurement)) return on_scan(*scan);
+  throw InputError(std::string("grid_mcl consumes odometry and scans only, not ") + kind_name(kind_of(measurement)));
+}
+
+UpdateResult GridMclLocalizer::on_scan(const LaserScan& scan) {
+  const CorrectionReport report = filter_->correct(scan, odometry_);
+  UpdateResult result;
+  result.estimate = make_estimate(scan.header);
+  result.localization = filter_->assessment();
+  if (!report.updated) return result;
+  Diagnostics& d = result.diagnostics;
+  d.values = {{"particles", static_cast<double>(filter_->particles().size())},
+              {"beams", static_cast<double>(report.beams)},
+              {"effective_sample_size", report.effective_sample_size},
+              {"average_likelihood", report.average_likelihood},
+              {"likelihood_slow", filter_->recovery().slow()},
+              {"likelihood_fast", filter_->recovery().fast()},
+              {"injection_probability", report.injection_probability},
+              {"injected", static_cast<double>(report.injected)},
+              {"scan_fit", report.fit}};
+  if (const auto e = filter_->estimate()) d.values.push_back({"cluster_mass", e->mass});
+  const auto& particles = filter_->particles();
+  const size_t shown = config_.diagnostics_particles;
+  if (shown > 0 && !particles.empty()) {
+    const size_t stride = (particles.size() + shown - 1) / shown;
+    for (size_t i = 0; i < particles.size(); i += stride) {
+      const PoseParticle& p = particles[i];
+      d.particles.push_back({p.pose.x, p.pose.y, p.pose.theta, p.weight * static_cast<double>(stride)});
+    }
+  }
+  return result;
+}
+
+std::optional<PoseEstimate> GridMclLocalizer::make_estimate(const Header& header) const {
+  const auto e = filter_->estimate_at(odometry_);
+  if (!e) return std::nullopt;
+  PoseEstimate out;
+  out.header.stamp_ns = header.stamp_ns;
+  out.header.frame_id = "map";
+  out.pose = e->pose.to_isometry();
+  out.covariance.setZero();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) out.covariance(kPlanarIndex[r], kPlanarIndex[c]) = e->covariance(r, c);
+  return out;
+}
+
+UpdateResult GridMclLocalizer::initial_outputs() const {
+  UpdateResult result;
+  if (!config_.publish_map || !filter_) return result;
+  const OccupancyMap& map = filter_->map().map;
+  const GridGeometry& g = map.geometry();
+  if (g.size() > kMaxGridCells) return result;
+  GridLayer layer;
+  layer.layer = "occupancy";
+  layer.resolution = g.resolution;
+  layer.origin = g.origin;
+  layer.width = g.width;
+  layer.height = g.height;
+  layer.cells.resize(g.size());
+  for (size_t i = 0; i < g.size(); ++i) {
+    const int8_t v = map.cells()[i];
+    layer.cells[i] = v < 0 ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(v) / 100.0f;
+  }
+  result.grid = std::move(layer);
+  result.localization = filter_->assessment();
+  return result;
+}
+
+}  // namespace locd::grid_mcl

@@ -1,0 +1,83 @@
+// grid_mcl's filter on the corridor grid scenario through its Localizer in-process (short runs):
+// tracking from the scenario's initial pose, global localization from a uniform start, the
+// localization state on the way, relocalization after a kidnapping, and multi-threaded weighting
+// giving the single-threaded result.
+#include <gtest/gtest.h>
+
+#include "locd/sim_grid_mcl/scenario_runs.hpp"
+#include "test_env.hpp"
+
+namespace {
+
+using namespace locd;
+using namespace locd::sim::grid;
+
+std::string corridor() { return test::source_dir() + "/config/scenarios/corridor_grid.yaml"; }
+
+TEST(GridMclFilter, TracksTheCorridorFromTheGivenPose) {
+  RunSpec spec;
+  spec.scenario_file = corridor();
+  spec.seed = 3;
+  spec.duration_s = 30.0;
+  const RunTrace trace = run_scenario(spec);
+  ASSERT_GT(trace.samples.size(), 1000u);
+  EXPECT_GT(trace.samples.front().error, 0.3) << "the given pose is off by the scenario's offset";
+  EXPECT_LT(rmse(trace, 10.0), 0.04);
+  double worst = 0.0;
+  for (const TraceSample& s : trace.samples) {
+    if (s.t >= 10.0) worst = std::max(worst, s.error);
+  }
+  EXPECT_LT(worst, 0.15);
+  EXPECT_EQ(trace.last_state, LocalizationState::kTracking) << trace.samples.back().reason;
+}
+
+TEST(GridMclFilter, GlobalLocalizationFromAUniformStart) {
+  for (uint64_t seed : {1, 2}) {
+    RunSpec spec;
+    spec.scenario_file = corridor();
+    spec.seed = seed;
+    spec.duration_s = 45.0;
+    spec.global = true;
+    const RunTrace trace = run_scenario(spec);
+    EXPECT_EQ(trace.samples.front().state, LocalizationState::kLost) << trace.samples.front().reason;
+    const double settled = settled_time(trace, 0.2, 0.0, spec.duration_s);
+    EXPECT_GE(settled, 0.0) << "seed " << seed;
+    EXPECT_LE(settled, 35.0) << "seed " << seed;
+    EXPECT_EQ(trace.last_state, LocalizationState::kTracking) << trace.samples.back().reason;
+    EXPECT_GT(trace.max_particles, 10000u) << "the global set is large";
+    EXPECT_LT(trace.samples.back().particles, 2000u) << "and KLD shrinks it once localized";
+  }
+}
+
+TEST(GridMclFilter, AKidnappedRobotIsDeclaredLostAndRelocalizes) {
+  RunSpec spec;
+  spec.scenario_file = corridor();
+  spec.seed = 2;
+  spec.duration_s = 85.0;
+  spec.kidnap_at = 25.0;
+  spec.kidnap_ahead_s = 20.0;
+  const RunTrace trace = run_scenario(spec);
+  bool lost = false;
+  for (const TraceSample& s : trace.samples) lost = lost || (s.t > spec.kidnap_at && s.state == LocalizationState::kLost);
+  EXPECT_TRUE(lost);
+  EXPECT_GE(trace.relocalizations, 1u);
+  const double recovered = settled_time(trace, 0.2, spec.kidnap_at, spec.duration_s);
+  EXPECT_GE(recovered, 0.0);
+  EXPECT_EQ(trace.last_state, LocalizationState::kTracking) << trace.samples.back().reason;
+}
+
+TEST(GridMclFilter, ThreadedWeightingGivesTheSameEstimates) {
+  RunSpec spec;
+  spec.scenario_file = corridor();
+  spec.seed = 4;
+  spec.duration_s = 6.0;
+  spec.params["min_particles"] = "5000";
+  spec.params["max_particles"] = "5000";
+  const RunTrace one = run_scenario(spec);
+  spec.params["threads"] = "2";
+  const RunTrace two = run_scenario(spec);
+  ASSERT_EQ(one.samples.size(), two.samples.size());
+  for (size_t i = 0; i < one.samples.size(); ++i) ASSERT_EQ(one.samples[i].error, two.samples[i].error) << i;
+}
+
+}  // namespace
