@@ -10,6 +10,7 @@
 #include "locd/sdk/robot_id.hpp"
 #include "locd/sdk/text.hpp"
 #include "locd/server/server.hpp"
+#include "locd/server/session.hpp"
 
 namespace locd::server {
 namespace {
@@ -264,6 +265,18 @@ void DdsBridge::publish_status(const SessionStatusReport& s) {
   wire->failures = s.failures;
   wire->localization = wire_localization(s.localization.state);
   copy_truncated(wire->localization_reason, s.localization.reason);
+  wire->lost = s.counters.lost;
+  std::array<locd_msg_StreamCount, 6> lost{};
+  uint32_t streams = 0;
+  for (size_t kind = 0; kind < s.counters.lost_by_kind.size(); ++kind) {
+    if (s.counters.lost_by_kind[kind] == 0) continue;
+    copy_truncated(lost[streams].topic, topic_of(static_cast<MeasurementKind>(1u << kind)));
+    lost[streams].count = s.counters.lost_by_kind[kind];
+    ++streams;
+  }
+  wire->lost_by_stream._length = wire->lost_by_stream._maximum = streams;
+  wire->lost_by_stream._buffer = lost.data();
+  wire->lost_by_stream._release = false;
   writers_for(s.robot_id)->status.write(*wire);
 }
 

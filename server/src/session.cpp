@@ -101,12 +101,23 @@ void Session::log_rejection(const std::string& error) {
 bool Session::push(Measurement measurement) {
   const size_t kind_index = measurement.index();
   const int64_t stamp = header_of(measurement).stamp_ns;
+  const uint64_t sequence = header_of(measurement).sequence;
   std::string error;
   const char* dropped = nullptr;  // topic of the message dropped from a full queue
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (stopped_) return false;
     ++counters_.received;
+    // Loss in transit: a gap in the stream's numbers. A number not above the last one is a new
+    // writer (the robot restarted) and starts the count again.
+    if (sequence != 0) {
+      uint64_t& last_sequence = last_sequence_[kind_index];
+      if (last_sequence != 0 && sequence > last_sequence + 1) {
+        counters_.lost += sequence - last_sequence - 1;
+        counters_.lost_by_kind[kind_index] += sequence - last_sequence - 1;
+      }
+      last_sequence = sequence;
+    }
     auto& last = last_stamp_[kind_index];
     if (last && stamp < *last) {
       ++counters_.rejected;

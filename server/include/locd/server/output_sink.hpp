@@ -1,6 +1,7 @@
 // Where sessions and the server publish. The DDS bridge implements it for real; tests record.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -21,6 +22,8 @@ struct SessionCounters {
                           // unprocessed when the session ended or its first plugin failed
   uint64_t rejected = 0;  // bad input: conversion, stamps going backwards, plugin InputError
   uint64_t updates = 0;   // estimates published
+  uint64_t lost = 0;      // lost in transit: gaps in the sequence numbers of a sensor stream
+  std::array<uint64_t, 6> lost_by_kind{};  // the same per measurement kind (variant index)
   double last_update_ms = 0.0;  // plugin compute time of the last update
 };
 

@@ -181,6 +181,7 @@ class Session : public InstanceOwner, public std::enable_shared_from_this<Sessio
   std::optional<InFlight> in_flight_;
   std::optional<uint64_t> release_after_reply_;  // a replaced plugin, released once it answers
   std::array<std::optional<int64_t>, 6> last_stamp_;  // per measurement kind (variant index)
+  std::array<uint64_t, 6> last_sequence_{};           // per measurement kind; 0 = none yet
   SessionCounters counters_;
   std::optional<Plugin> current_;  // the plugin serving the session (instance 0 while restarting)
   std::optional<Pending> pending_;  // a plugin being configured
