@@ -182,6 +182,8 @@ struct Observations {
   std::map<long, std::pair<size_t, std::vector<double>>> per_second;  // second -> poses, latencies
   size_t poses = 0;
   size_t unmatched = 0;  // poses whose stamp is no message of this run
+  std::vector<int64_t> last_pose_ns;  // per robot, wall clock of the last pose received (0: none)
+  std::vector<double> max_gap_ms;     // per robot, the longest wait between two poses
 };
 
 void write_plot(const std::string& file, const std::map<long, std::pair<size_t, std::vector<double>>>& per_second,
@@ -281,6 +283,8 @@ int run_fleet(const Scenario& scenario, const FleetOptions& options) {
   Observations seen;
   seen.status.resize(n);
   seen.answered.resize(n, std::array<size_t, 6>{});
+  seen.last_pose_ns.resize(n, 0);
+  seen.max_gap_ms.resize(n, 0.0);
   int64_t origin_ns = 0;  // stamp of t = 0 (set before any sensor message)
   const dds::Partitions every_robot{topics::kAllRobotsPartition};
   dds::Reader<locd_msg_SessionStatus> statuses(
@@ -315,6 +319,10 @@ int run_fleet(const Scenario& scenario, const FleetOptions& options) {
         const double latency_ms = (static_cast<double>(now) - due) * 1e-6;
         ++seen.answered[i][kind->second];
         ++seen.poses;
+        if (seen.last_pose_ns[i] != 0) {
+          seen.max_gap_ms[i] = std::max(seen.max_gap_ms[i], static_cast<double>(now - seen.last_pose_ns[i]) * 1e-6);
+        }
+        seen.last_pose_ns[i] = now;
         seen.latency_ms.push_back(latency_ms);
         auto& second = seen.per_second[static_cast<long>((now - origin_ns) / 1'000'000'000)];
         ++second.first;
@@ -439,6 +447,7 @@ int run_fleet(const Scenario& scenario, const FleetOptions& options) {
     }
   }
   const double run_s = std::chrono::duration<double>(Clock::now() - run_start).count();
+  const int64_t last_published_ns = wall_ns();
   const ProcessSample after = sample_servers(options.server_pids);
   std::this_thread::sleep_for(kDrain);
   // The servers' counters: statuses come once per status period.
@@ -467,6 +476,10 @@ int run_fleet(const Scenario& scenario, const FleetOptions& options) {
     ++servers[s.server_id];
   }
   const size_t expected_poses = published_by_kind[pose_kind];
+  // Robots that got no pose in the last two seconds of driving (lost their server for good).
+  size_t silent = 0;
+  for (size_t i = 0; i < n; ++i) silent += seen.last_pose_ns[i] < last_published_ns - 2'000'000'000;
+  const double max_gap_ms = n == 0 ? 0.0 : *std::max_element(seen.max_gap_ms.begin(), seen.max_gap_ms.end());
   const double cpu_s = after.cpu_s - before.cpu_s;
   static const char* kKindNames[] = {"odometry", "imu", "scan", "cloud", "image", "detections"};
 
@@ -488,6 +501,8 @@ int run_fleet(const Scenario& scenario, const FleetOptions& options) {
               {"latency_ms_p99", percentile(seen.latency_ms, 0.99)},
               {"latency_ms_max", seen.latency_ms.empty() ? 0.0 : *std::max_element(seen.latency_ms.begin(), seen.latency_ms.end())},
               {"generator_lag_ms_p99", percentile(lag_ms, 0.99)},
+              {"max_pose_gap_ms", max_gap_ms},
+              {"robots_silent_at_end", silent},
               {"server_received", received},
               {"server_lost_in_transit", lost},
               {"server_dropped", dropped},

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "locd/sdk/types.hpp"
+#include "locd/server/resume.hpp"
 
 namespace locd::server {
 
@@ -49,6 +50,8 @@ struct ServerInfoReport {
   };
   std::string server_id;
   int64_t started_ns = 0;
+  double weight = 1.0;       // rendezvous weight among the fleet's servers
+  std::string server_group;  // robots asking for this group are served by its servers only
   std::vector<Plugin> plugins;
   std::vector<std::string> rejected_plugins;
 };
@@ -61,6 +64,11 @@ class OutputSink {
   virtual void publish_outputs(const std::string& robot_id, const std::string& plugin, const Header& header,
                                const UpdateResult& result, double update_ms) = 0;
   virtual void publish_server_info(const ServerInfoReport& info) = 0;
+  // To the fleet's other servers (default: a lone server, nothing to tell). A claim is written
+  // while this server serves the robot and withdrawn when it stops; a resume state is where the
+  // robot would resume on another server.
+  virtual void publish_claim(const std::string& robot_id, bool serving) {}
+  virtual void publish_resume_state(const std::string& robot_id, const ResumeState& state) {}
 };
 
 int64_t wall_clock_ns();
