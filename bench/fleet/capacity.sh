@@ -7,7 +7,8 @@
 # dropped, and p99 <= 20 ms. Loopback only, in a network namespace made here.
 # Usage (as root, from the repository root):
 #   bench/fleet/capacity.sh DURATION_S SESSIONS_PER_WORKER|- N...
-# LOCD_BIN / LOCD_PLUGINS / LOCD_GENERATOR: another build's locd, plugins and locsim.
+# LOCD_BIN / LOCD_PLUGINS / LOCD_GENERATOR: another build's locd, plugins and locsim;
+# LOCD_SCENARIO: another scenario (e.g. config/scenarios/ceiling_hall.yaml); LOCD_DISTINCT: runs.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 duration="$1"; shift
@@ -49,7 +50,8 @@ for n in "$@"; do
   run taskset -c 0 "$bin/locd" --config "$work/locd.yaml" > "$work/locd.log" 2>&1 &
   sleep 2
   pid=$(pgrep -f "locd --config $work/locd.yaml" | head -1)
-  run taskset -c 1 "${LOCD_GENERATOR:-$PWD/build/bin/locsim}" fleet config/scenarios/corridor_fleet.yaml --robots "$n" \
+  run taskset -c 1 "${LOCD_GENERATOR:-$PWD/build/bin/locsim}" fleet "${LOCD_SCENARIO:-config/scenarios/corridor_fleet.yaml}" \
+    --robots "$n" --distinct "${LOCD_DISTINCT:-8}" \
     --duration "$duration" --domain 2 --server-pid "$pid" --server-timeout 300 --json \
     > "$work/out.json" 2> "$work/err.txt" || true
   python3 "$work/summary.py" "$work/out.json" "$n"
