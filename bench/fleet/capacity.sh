@@ -15,13 +15,7 @@ duration="$1"; shift
 per_worker="$1"; shift
 bin="${LOCD_BIN:-$PWD/build/bin}"
 plugins="${LOCD_PLUGINS:-$PWD/build/plugins}"
-ns="locd_capacity_$$"
-work="$(mktemp -d)"
-ip netns add "$ns"
-ip netns exec "$ns" ip link set lo up
-cleanup() { ip netns pids "$ns" | xargs -r kill -9 2>/dev/null || true; ip netns del "$ns"; rm -rf "$work"; }
-trap cleanup EXIT
-run() { ip netns exec "$ns" env CYCLONEDDS_URI="file://$PWD/config/dds/loopback.xml" "$@"; }
+source bench/lib/loopback_namespace.sh
 {
   echo "domain_id: 2"
   echo "plugin_directories: [$plugins]"

@@ -10,13 +10,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 seconds="${1:-15}"
-ns="locd_latency_$$"
-work="$(mktemp -d)"
-ip netns add "$ns"
-ip netns exec "$ns" ip link set lo up
-cleanup() { ip netns pids "$ns" | xargs -r kill -9 2>/dev/null || true; ip netns del "$ns"; rm -rf "$work"; }
-trap cleanup EXIT
-run() { ip netns exec "$ns" env CYCLONEDDS_URI="file://$PWD/config/dds/loopback.xml" "$@"; }
+source bench/lib/loopback_namespace.sh
 
 run ddsperf -D "$((seconds + 2))" pong > /dev/null 2>&1 &
 run ddsperf -D "$seconds" ping 200Hz > "$work/ping.txt" 2>&1 || true

@@ -265,20 +265,7 @@ void Session::configure_on_worker(Pending pending) {
       if (pending.restart) {
         register_failure_locked(error, out);
       } else {
-        const bool running = plugin_alive_locked();
-        request_id_ = pending.plugin.request_id;
-        request_ok_ = false;
-        message_ = last_error_ = error;
-        if (!running) {
-          state_ = SessionState::kError;
-          stopped_ = true;
-          counters_.dropped += queue_.size();
-          queue_.clear();
-          out.forget = true;
-        }
-        out.status = true;
-        out.log.emplace_back(LogLevel::kWarning, "request " + std::to_string(pending.plugin.request_id) +
-                                                     " failed: " + error);
+        fail_pending_locked(pending.plugin.request_id, error, out);
       }
     } else {
       if (pending_) out.release.push_back(pending_->plugin.instance);  // an older one still configuring
@@ -504,21 +491,7 @@ void Session::handle_configured_locked(Pending pending, worker::Reply& reply, Pu
       register_failure_locked("plugin '" + plugin + "' could not be restarted: " + reply.message, out);
       return;
     }
-    const bool running = plugin_alive_locked();
-    request_id_ = pending.plugin.request_id;
-    request_ok_ = false;
-    message_ = last_error_ = reply.message;
-    if (!running) {
-      state_ = SessionState::kError;
-      stopped_ = true;
-      counters_.dropped += queue_.size();
-      queue_.clear();
-      out.forget = true;
-    }
-    out.log.emplace_back(LogLevel::kWarning, "request " + std::to_string(pending.plugin.request_id) + " failed" +
-                                                 (running ? " (the running plugin carries on): " : ": ") +
-                                                 reply.message);
-    out.status = true;
+    fail_pending_locked(pending.plugin.request_id, reply.message, out);
     return;
   }
   const std::string previous = current_ ? current_->name : "";
@@ -660,20 +633,7 @@ void Session::on_lost(uint64_t instance, const WorkerLoss& loss) {
       } else if (pending.restart) {
         register_failure_locked(loss.description, out);
       } else {
-        const bool running = plugin_alive_locked();
-        request_id_ = pending.plugin.request_id;
-        request_ok_ = false;
-        message_ = last_error_ = loss.description;
-        if (!running) {
-          state_ = SessionState::kError;
-          stopped_ = true;
-          counters_.dropped += queue_.size();
-          queue_.clear();
-          out.forget = true;
-        }
-        out.log.emplace_back(LogLevel::kError, "request " + std::to_string(pending.plugin.request_id) +
-                                                   " failed: " + loss.description);
-        out.status = true;
+        fail_pending_locked(pending.plugin.request_id, loss.description, out);
       }
     }
     if (release_after_reply_ == instance) release_after_reply_.reset();
@@ -708,6 +668,25 @@ void Session::on_lost(uint64_t instance, const WorkerLoss& loss) {
     pump_locked();
   }
   finish(out);
+}
+
+void Session::fail_pending_locked(uint64_t request_id, const std::string& error, Publication& out) {
+  // The running plugin (if any) carries on; a session left without one ends (its router forgets
+  // it) and what it had queued is counted as dropped.
+  const bool running = plugin_alive_locked();
+  request_id_ = request_id;
+  request_ok_ = false;
+  message_ = last_error_ = error;
+  if (!running) {
+    state_ = SessionState::kError;
+    stopped_ = true;
+    counters_.dropped += queue_.size();
+    queue_.clear();
+    out.forget = true;
+  }
+  out.log.emplace_back(LogLevel::kWarning, "request " + std::to_string(request_id) + " failed" +
+                                               (running ? " (the running plugin carries on): " : ": ") + error);
+  out.status = true;
 }
 
 void Session::register_failure_locked(const std::string& description, Publication& out) {

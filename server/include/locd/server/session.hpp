@@ -162,6 +162,8 @@ class Session : public InstanceOwner, public std::enable_shared_from_this<Sessio
   void handle_configured_locked(Pending pending, worker::Reply& reply, Publication& out);
   void handle_update_locked(InFlight& done, worker::Reply& reply, Publication& out);
   void handle_control_locked(InFlight& done, worker::Reply& reply, Publication& out);
+  // A request that did not get its plugin configured.
+  void fail_pending_locked(uint64_t request_id, const std::string& error, Publication& out);
   void register_failure_locked(const std::string& description, Publication& out);
   void schedule_restart_locked(std::chrono::duration<double> delay);
   void restart(uint64_t generation);
