@@ -2,10 +2,10 @@
 # Takeover, measured (README quotes the output): three locd servers on three hosts and N robots
 # of `locsim fleet` on a fourth (network namespaces joined by a bridge, tests/common/hosts.sh;
 # nothing leaves them), one server killed with kill -9 (or its cable cut) in the middle of the
-# run. Prints the spread of the robots over the servers before and after, the longest wait of
+# run (cutheal: the cable comes back 5 s later; the robots must not move back). Prints the spread of the robots over the servers before and after, the longest wait of
 # any robot between two poses, the poses missing, and locsim fleet's whole JSON.
 # Usage (as root, from the repository root, after a build):
-#   bench/fleet/takeover.sh [ROBOTS] [DURATION_S] [kill|cut]
+#   bench/fleet/takeover.sh [ROBOTS] [DURATION_S] [kill|cut|cutheal]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 robots="${1:-600}"
@@ -26,7 +26,7 @@ domain_id: 1
 plugin_directories: [$PWD/build/plugins]
 map_directories: [$PWD/config/maps]
 max_sessions: 10000
-log_level: warning
+log_level: ${LOCD_LOG_LEVEL:-warning}
 plugin_workers: {sessions_per_worker: 50}
 EOF
   on "$s" "$bin/locd" --config "$work/locd$s.yaml" > "$work/locd$s.log" 2>&1 &
@@ -36,17 +36,25 @@ on 0 "$bin/locsim" fleet config/scenarios/corridor_fleet.yaml --robots "$robots"
   --server-timeout 120 --json --plot "$work/takeover.png" > "$work/fleet.json" 2> "$work/fleet.err" &
 fleet=$!
 until grep -q "robots running" "$work/fleet.err"; do sleep 0.2; kill -0 "$fleet" || { cat "$work/fleet.err"; exit 1; }; done
+started=$SECONDS
 sleep $((duration / 2))
 echo "before: $(on 0 "$bin/locctl" status --domain 1 --json | python3 -c 'import json,sys,collections; print(dict(collections.Counter(s["server"] for s in json.load(sys.stdin)["sessions"])))')"
-if [ "$how" = cut ]; then
+if [ "$how" = cut ] || [ "$how" = cutheal ]; then
   tests/common/hosts.sh cut "$prefix" 2
   echo "server2's cable cut at $(date +%T.%N)"
+  if [ "$how" = cutheal ]; then
+    sleep 5
+    tests/common/hosts.sh heal "$prefix" 2
+    echo "server2's cable back at $(date +%T.%N): its robots must stay where they went"
+  fi
 else
   pkill -9 -f "locd --config $work/locd2.yaml"
   echo "server2 killed (SIGKILL) at $(date +%T.%N)"
 fi
-wait "$fleet" || true
+# The spread after, while the robots still run (after they stop, their sessions end).
+sleep $(( duration - (SECONDS - started) - 3 > 0 ? duration - (SECONDS - started) - 3 : 0 ))
 echo "after: $(on 0 "$bin/locctl" status --domain 1 --json | python3 -c 'import json,sys,collections; print(dict(collections.Counter(s["server"] for s in json.load(sys.stdin)["sessions"])))')"
+wait "$fleet" || true
 python3 - "$work/fleet.json" <<'EOF'
 import json, sys
 r = json.load(open(sys.argv[1]))
@@ -55,6 +63,7 @@ print("robots %d, longest wait between two poses of any robot %.0f ms, poses mis
       r["robots_silent_at_end"], r["latency_ms_p50"], r["latency_ms_p99"]))
 print(json.dumps(r))
 EOF
+if [ -n "${LOCD_KEEP_LOGS:-}" ]; then cp "$work"/locd?.log "$LOCD_KEEP_LOGS"/ && echo "servers' logs: $LOCD_KEEP_LOGS"; fi
 cp "$work/takeover.png" /tmp/takeover.png 2>/dev/null && echo "plot: /tmp/takeover.png"
-for s in 1 3; do pkill -TERM -f "locd --config $work/locd$s.yaml" || true; done
+for s in 1 2 3; do pkill -TERM -f "locd --config $work/locd$s.yaml" || true; done
 wait 2>/dev/null || true

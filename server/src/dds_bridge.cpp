@@ -109,8 +109,8 @@ struct DdsBridge::Readers {
 DdsBridge::DdsBridge(int domain_id, std::string server_id, const Limits& limits, Logger& logger, size_t max_robots)
     : server_id_(std::move(server_id)), limits_(limits), logger_(logger), max_robots_(std::max<size_t>(1, max_robots)),
       participant_(static_cast<dds_domainid_t>(domain_id)),
-      server_info_(participant_, topics::kServerInfo, dds::QosProfile::kServerState),
-      claims_(participant_, topics::kServingClaim, dds::QosProfile::kServerState),
+      server_info_(participant_, topics::kServerInfo, dds::QosProfile::kState),
+      claims_(participant_, topics::kServingClaim, dds::QosProfile::kState),
       resume_states_(participant_, topics::kResumeState, dds::QosProfile::kState) {}
 
 DdsBridge::~DdsBridge() { disconnect(); }
@@ -244,7 +244,8 @@ void DdsBridge::connect(Server& server) {
       [&server](const std::string& robot_id, const locd_msg_MapSaveRequest& sample) {
         server.on_map_save_request(robot_id, sample.request_id);
       });
-  // The fleet: servers come (ServerInfo) and go (its writer's liveliness lapses), claim robots
+  // The fleet: servers come and stay alive (ServerInfo, a heartbeat every 100 ms), go (silent for
+  // 500 ms, Server::rebalance; or their writer deleted on a clean stop), claim robots
   // and withdraw claims (disposed, or gone with their server), and share resume states.
   readers->servers = dds::Reader<locd_msg_ServerInfo>(
       participant_, topics::kServerInfo, dds::QosProfile::kState,
@@ -358,8 +359,22 @@ void DdsBridge::publish_claim(const std::string& robot_id, bool serving) {
   std::lock_guard<std::mutex> lock(fleet_mutex_);
   if (serving) {
     claims_.write(claim);
+    claimed_since_[robot_id] = claim.since_ns;
   } else {
+    claimed_since_.erase(robot_id);
     dds::check(dds_dispose(claims_.handle(), &claim), "withdraw a claim");
+  }
+}
+
+void DdsBridge::republish_claims() {
+  std::lock_guard<std::mutex> lock(fleet_mutex_);
+  for (const auto& [robot_id, since_ns] : claimed_since_) {
+    locd_msg_ServingClaim claim;
+    std::memset(&claim, 0, sizeof claim);
+    copy_truncated(claim.robot_id, robot_id);
+    copy_truncated(claim.server_id, server_id_);
+    claim.since_ns = since_ns;
+    claims_.write(claim);
   }
 }
 

@@ -15,8 +15,18 @@ constexpr size_t kMaxUnservedRobots = 4096;  // bounds the memory a flood of rob
 constexpr size_t kMaxRequestsKept = 200000;
 // Without news from the fleet, the rules are applied again this often.
 constexpr auto kRebalanceEvery = std::chrono::seconds(1);
-// A robot another server served is taken over only if heard from this recently.
+// A robot another server served is taken over only if heard from this recently, after the last
+// server was found gone (a server cut off hears no robot), and heard without a break this long: a
+// server whose network comes back after a cut hears the robots at once but the other servers
+// only at their next heartbeat; in between it would think itself alone and take every robot.
 constexpr auto kTakeoverHeardWithin = std::chrono::seconds(2);
+constexpr auto kTakeoverHeardFor = std::chrono::seconds(1);
+// Who is alive: every server writes its ServerInfo this often, and a server not heard from for
+// kServerSilence is gone (killed, hung, or cut off). A heartbeat rather than a DDS liveliness
+// lease: with Cyclone DDS 0.10, a writer whose lease lapsed (a cable cut for 5 s) stayed unseen
+// by the cut-off side after the cable came back, which then thought itself alone.
+constexpr auto kHeartbeatEvery = std::chrono::milliseconds(100);
+constexpr auto kServerSilence = std::chrono::milliseconds(500);
 
 }  // namespace
 
@@ -316,7 +326,9 @@ void Server::reconsider(const std::string& robot_id) {
         // A takeover: only of a robot this server hears now (a server cut off from the network
         // takes nothing, and hands nothing back when it returns).
         const auto heard = last_heard_.find(robot_id);
-        if (heard == last_heard_.end() || std::chrono::steady_clock::now() - heard->second > kTakeoverHeardWithin) {
+        const auto now = std::chrono::steady_clock::now();
+        if (heard == last_heard_.end() || now - heard->second.last > kTakeoverHeardWithin ||
+            now - heard->second.since < kTakeoverHeardFor || heard->second.last < last_server_gone_) {
           fleet_changed_ = true;  // look again at the next tick
           return;
         }
@@ -361,12 +373,18 @@ void Server::on_server_alive(const ServerMember& member) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (member.id == config_.server_id) return;
+    server_heard_[member.id] = std::chrono::steady_clock::now();
     const auto alive = fleet_.alive();
-    joined = std::none_of(alive.begin(), alive.end(), [&](const ServerMember& m) { return m.id == member.id; });
+    const auto known = std::find_if(alive.begin(), alive.end(), [&](const ServerMember& m) { return m.id == member.id; });
+    joined = known == alive.end();
+    // Servers repeat their ServerInfo (kHeartbeatEvery); only news changes the fleet.
+    if (!joined && known->weight == member.weight && known->group == member.group) return;
     fleet_.server_alive(member);
     fleet_changed_ = true;
   }
   if (joined) {
+    // It may have missed (or dropped, cut off) this server's claims: tell it again.
+    pool_.post([this] { sink_.republish_claims(); });
     logger_.log(LogLevel::kInfo, "server", "server '" + member.id + "' joined the fleet (weight " +
                                                std::to_string(member.weight) +
                                                (member.group.empty() ? "" : ", group " + member.group) + ")");
@@ -376,11 +394,16 @@ void Server::on_server_alive(const ServerMember& member) {
 void Server::on_server_gone(const std::string& server_id) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (server_id == config_.server_id) return;
-    fleet_.server_gone(server_id);
-    fleet_changed_ = true;
+    if (server_id == config_.server_id || !server_heard_.erase(server_id)) return;
+    forget_server_locked(server_id);
   }
   logger_.log(LogLevel::kInfo, "server", "server '" + server_id + "' is gone; its robots go to the servers left");
+}
+
+void Server::forget_server_locked(const std::string& server_id) {
+  fleet_.server_gone(server_id);
+  fleet_changed_ = true;
+  last_server_gone_ = std::chrono::steady_clock::now();
 }
 
 void Server::on_claim(const std::string& robot_id, const std::string& server_id, bool serving, int64_t since_ns) {
@@ -402,21 +425,49 @@ void Server::on_peer_resume_state(const std::string& robot_id, const std::string
 
 void Server::rebalance() {
   std::vector<std::string> robots;
+  std::vector<std::string> silent;  // servers gone quiet
+  bool announce = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     const auto now = std::chrono::steady_clock::now();
-    if (!fleet_changed_ && now - last_rebalance_ < kRebalanceEvery) return;
-    fleet_changed_ = false;
-    last_rebalance_ = now;
-    for (const auto& [robot_id, stored] : requests_) {
-      const bool serving = sessions_.count(robot_id) > 0;
-      const FleetView::Decision d = fleet_.decide(robot_id, stored.group, serving);
-      if ((serving && d == FleetView::Decision::kYield) || (!serving && d == FleetView::Decision::kServe)) {
-        robots.push_back(robot_id);
+    if (now - last_announce_ >= kHeartbeatEvery) {
+      announce = true;
+      last_announce_ = now;
+    }
+    for (auto it = server_heard_.begin(); it != server_heard_.end();) {
+      if (now - it->second <= kServerSilence) {
+        ++it;
+        continue;
+      }
+      silent.push_back(it->first);
+      forget_server_locked(it->first);
+      it = server_heard_.erase(it);
+    }
+    if (fleet_changed_ || now - last_rebalance_ >= kRebalanceEvery) {
+      fleet_changed_ = false;
+      last_rebalance_ = now;
+      for (const auto& [robot_id, stored] : requests_) {
+        const bool serving = sessions_.count(robot_id) > 0;
+        const FleetView::Decision d = fleet_.decide(robot_id, stored.group, serving);
+        if ((serving && d == FleetView::Decision::kYield) || (!serving && d == FleetView::Decision::kServe)) {
+          robots.push_back(robot_id);
+        }
       }
     }
   }
+  for (const auto& id : silent) {
+    logger_.log(LogLevel::kInfo, "server", "server '" + id + "' went silent (no ServerInfo for " +
+                                               std::to_string(kServerSilence.count()) +
+                                               " ms): gone; its robots go to the servers left");
+  }
   for (const auto& robot_id : robots) pool_.post([this, robot_id] { reconsider(robot_id); });
+  if (announce) {
+    try {
+      sink_.publish_server_info(info());
+    } catch (const std::exception& e) {
+      logger_.log(LogLevel::kError, "server", std::string("server info not published: ") + e.what());
+    }
+  }
 }
 
 void Server::handle_start(const std::shared_ptr<Session>& session, uint64_t generation,
@@ -536,7 +587,12 @@ void Server::report_no_session(const std::string& robot_id, const std::string& t
   SessionStatusReport status;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (served_elsewhere_.count(robot_id)) last_heard_[robot_id] = std::chrono::steady_clock::now();
+    if (served_elsewhere_.count(robot_id)) {
+      const auto now = std::chrono::steady_clock::now();
+      Heard& heard = last_heard_[robot_id];
+      if (now - heard.last > kTakeoverHeardWithin) heard.since = now;  // heard again after a break
+      heard.last = now;
+    }
     const auto stored = requests_.find(robot_id);
     if (!fleet_.answers_for(robot_id, stored == requests_.end() ? "" : stored->second.group)) {
       ++messages_served_elsewhere_;  // another server serves the robot (or will): not ours to answer

@@ -40,6 +40,7 @@ class DdsBridge : public OutputSink {
                        const UpdateResult& result, double update_ms) override;
   void publish_server_info(const ServerInfoReport& info) override;
   void publish_claim(const std::string& robot_id, bool serving) override;
+  void republish_claims() override;
   void publish_resume_state(const std::string& robot_id, const ResumeState& state) override;
 
   // The bridge's participant, shared with the ROS 2 bridge (one participant per server).
@@ -61,6 +62,7 @@ class DdsBridge : public OutputSink {
   dds::Writer<locd_msg_ServingClaim> claims_;        // default partition, server to server
   dds::Writer<locd_msg_ResumeState> resume_states_;  // likewise
   std::mutex fleet_mutex_;                           // the two writers above
+  std::map<std::string, int64_t> claimed_since_;     // robot -> since_ns of this server's claim (under fleet_mutex_)
   std::mutex writers_mutex_;
   std::map<std::string, std::shared_ptr<RobotWriters>> robot_writers_;
   uint64_t use_counter_ = 0;

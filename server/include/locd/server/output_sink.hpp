@@ -68,6 +68,10 @@ class OutputSink {
   // while this server serves the robot and withdrawn when it stops; a resume state is where the
   // robot would resume on another server.
   virtual void publish_claim(const std::string& robot_id, bool serving) {}
+  // Writes every claim this server holds again, each with the time it was first made: a server
+  // that joins, or comes back after its network was cut (it had dropped the claims it could not
+  // hear), learns them; a double claim is then settled for the newest as usual.
+  virtual void republish_claims() {}
   virtual void publish_resume_state(const std::string& robot_id, const ResumeState& state) {}
 };
 

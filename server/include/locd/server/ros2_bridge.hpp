@@ -54,6 +54,7 @@ class Ros2Bridge : public OutputSink, public SessionObserver {
                        const UpdateResult& result, double update_ms) override;
   void publish_server_info(const ServerInfoReport& info) override;
   void publish_claim(const std::string& robot_id, bool serving) override { next_.publish_claim(robot_id, serving); }
+  void republish_claims() override { next_.republish_claims(); }
   void publish_resume_state(const std::string& robot_id, const ResumeState& state) override {
     next_.publish_resume_state(robot_id, state);
   }

@@ -66,7 +66,7 @@ class Server {
   // The fleet's other servers (from the bridge): alive or gone, what they serve, where their
   // robots would resume. Decisions follow in rebalance().
   void on_server_alive(const ServerMember& member);
-  void on_server_gone(const std::string& server_id);
+  void on_server_gone(const std::string& server_id);  // its writer was deleted (a clean stop)
   void on_claim(const std::string& robot_id, const std::string& server_id, bool serving, int64_t since_ns = 0);
   void on_peer_resume_state(const std::string& robot_id, const std::string& server_id, const ResumeState& state);
   // Applies the fleet's rules (fleet.hpp) to every robot whose latest request asks for a
@@ -104,6 +104,7 @@ class Server {
   bool answers_for(const std::string& robot_id) const;
   // Writes the claims made or withdrawn under mutex_ (call after releasing it).
   void publish_claims();
+  void forget_server_locked(const std::string& server_id);
   // Erases a session from the router (claim withdrawn); under mutex_.
   void forget_locked(std::map<std::string, std::shared_ptr<Session>>::iterator it);
   void report_no_session(const std::string& robot_id, const std::string& topic, const std::string& detail);
@@ -145,15 +146,25 @@ class Server {
   FleetView fleet_;
   bool fleet_changed_ = false;
   std::chrono::steady_clock::time_point last_rebalance_{};
+  std::chrono::steady_clock::time_point last_announce_ = std::chrono::steady_clock::now();  // boot() announced
+  std::map<std::string, std::chrono::steady_clock::time_point> server_heard_;  // other servers' last ServerInfo
+  // When a server was last found gone: a robot is taken over only if heard after that (a server
+  // cut off hears none of them).
+  std::chrono::steady_clock::time_point last_server_gone_{};
   std::map<std::string, ResumeState> peer_states_;
   std::map<std::string, std::pair<int64_t, bool>> shared_;  // robot -> stamp, failed last shared
   uint64_t messages_served_elsewhere_ = 0;
   std::vector<std::pair<std::string, bool>> claims_to_publish_;  // under mutex_
   std::mutex claims_mutex_;                                      // orders publish_claims()
-  // Robots another server served, and when this server last heard from each (any message): a
-  // robot is taken over only while it is heard, so a server cut off from the network takes none.
+  // Robots another server served, and since when and until when this server heard each without
+  // a break (any message): a robot is taken over only while it is heard and after it has been
+  // heard for a while, so a server cut off from the network takes none, and takes none when its
+  // network comes back before discovery shows it the other servers again.
   std::set<std::string> served_elsewhere_;
-  std::map<std::string, std::chrono::steady_clock::time_point> last_heard_;
+  struct Heard {
+    std::chrono::steady_clock::time_point since, last;
+  };
+  std::map<std::string, Heard> last_heard_;
   std::string last_saved_;                     // what save_state wrote last (to skip unchanged writes)
   std::map<std::string, std::chrono::steady_clock::time_point> ownerless_since_;  // robots with a session only
 };
