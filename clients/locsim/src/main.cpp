@@ -96,6 +96,7 @@ fs::path default_plugin_directory() {
 // The options as text, before conversion.
 struct Text {
   std::string scenario, seed, duration, runs, strategies, domain, server_timeout, rate, ros2;
+  std::string kidnap_at, kidnap_distance, wrong_start;
   std::vector<std::string> plugin_directories;
 };
 
@@ -153,6 +154,9 @@ Command parse(const std::vector<std::string>& args) {
   app.add_option("--plot", c.plot_file);
   app.add_option("--seed", text.seed);
   app.add_option("--duration", text.duration);
+  app.add_option("--kidnap-at", text.kidnap_at);
+  app.add_option("--kidnap-distance", text.kidnap_distance);
+  app.add_option("--wrong-start", text.wrong_start);
   if (mode == "run" || mode == "montecarlo") {
     app.add_option("--plugin-dir", text.plugin_directories)->expected(1)->take_all();
   }
@@ -178,6 +182,11 @@ Command parse(const std::vector<std::string>& args) {
   }
   if (!text.seed.empty()) c.seed = parse_unsigned("--seed", text.seed, std::numeric_limits<long>::max());
   if (!text.duration.empty()) c.duration_s = parse_number("--duration", text.duration, 1e-3, 86400.0);
+  if (!text.kidnap_at.empty()) c.kidnap_at_s = parse_number("--kidnap-at", text.kidnap_at, 0.0, 86400.0);
+  if (!text.kidnap_distance.empty()) {
+    c.kidnap_distance_m = parse_number("--kidnap-distance", text.kidnap_distance, 0.0, 1e5);
+  }
+  if (!text.wrong_start.empty()) c.wrong_start_m = parse_number("--wrong-start", text.wrong_start, 0.0, 1e5);
   if (!text.runs.empty()) c.runs = static_cast<int>(parse_unsigned("--runs", text.runs, 100000));
   if (!text.strategies.empty()) {
     c.strategies.clear();

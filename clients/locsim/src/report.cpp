@@ -10,6 +10,43 @@
 
 namespace locd::sim {
 
+nlohmann::ordered_json consistency_json(const ConsistencySummary& c) {
+  const auto optional = [](const std::optional<double>& v) {
+    return v ? nlohmann::ordered_json(*v) : nlohmann::ordered_json(nullptr);
+  };
+  return {{"estimates", c.samples},
+          {"nees_position_mean", c.nees_position_mean},
+          {"nees_position_inside_95", c.position_inside_95_share},
+          {"nees_heading_mean", optional(c.nees_heading_mean)},
+          {"nees_heading_inside_95", optional(c.heading_inside_95_share)},
+          {"outside_99_share", c.outside_99_share},
+          {"heading_outside_99_share", c.heading_samples ? nlohmann::ordered_json(c.heading_outside_99_share)
+                                                         : nlohmann::ordered_json(nullptr)},
+          {"confidently_wrong_share", c.confidently_wrong_share},
+          {"verdict", c.verdict}};
+}
+
+nlohmann::ordered_json localization_json(const StateSummary& l, const std::optional<SimulatedEvent>& event) {
+  const auto optional = [](const std::optional<double>& v) {
+    return v ? nlohmann::ordered_json(*v) : nlohmann::ordered_json(nullptr);
+  };
+  const auto share = [&](size_t n) { return l.samples ? static_cast<double>(n) / static_cast<double>(l.samples) : 0.0; };
+  nlohmann::ordered_json json = {{"tracking_share", share(l.tracking)},
+                                 {"uncertain_share", share(l.uncertain)},
+                                 {"lost_share", share(l.lost)},
+                                 {"unknown_share", share(l.unknown)},
+                                 {"small_error_estimates", l.small_error_samples},
+                                 {"false_alarm_share", l.false_alarm_share}};
+  if (event) {
+    json["event"] = event->kind;
+    json["event_s"] = event->t;
+    json["event_distance_m"] = event->distance_m;
+    json["detection_delay_s"] = optional(l.detection_delay_s);
+    json["relocalization_delay_s"] = optional(l.relocalization_delay_s);
+  }
+  return json;
+}
+
 // One JSON object on one line (nlohmann-json; a non-finite number is written as null).
 void write_json(std::ostream& out, const RunResult& r) {
   const EvaluationSummary& s = r.summary;
@@ -36,6 +73,8 @@ void write_json(std::ostream& out, const RunResult& r) {
       {"converged", s.converged},
       {"convergence_time_s", optional(s.convergence_time_s)},
   };
+  json["consistency"] = consistency_json(s.consistency);
+  json["localization"] = localization_json(s.localization, r.event);
   if (s.latency_ms_p50) {
     json["latency_ms_p50"] = optional(s.latency_ms_p50);
     json["latency_ms_p99"] = optional(s.latency_ms_p99);
@@ -55,6 +94,49 @@ void report_run(const RunResult& result, const FeatureMap2D& map, bool json, con
   if (plot_file.empty()) return;
   plot_run(plot_file, map, result);
   (json ? std::cerr : std::cout) << "plot: " << plot_file << std::endl;
+}
+
+void write_consistency_summary(std::ostream& out, const ConsistencySummary& c) {
+  if (!c.samples) return;
+  const auto percent = [](double share) { return 100.0 * share; };
+  out << std::setprecision(2);
+  out << "  consistency: position NEES mean " << c.nees_position_mean << " (2 if consistent), "
+      << percent(c.position_inside_95_share) << " % inside its 95 % bound";
+  if (c.nees_heading_mean) {
+    out << "; heading NEES mean " << *c.nees_heading_mean << " (1), " << percent(*c.heading_inside_95_share)
+        << " % inside";
+  } else {
+    out << "; no heading variance reported";
+  }
+  out << "\n  outside the 99 % ellipse " << percent(c.outside_99_share) << " %, confidently wrong "
+      << percent(c.confidently_wrong_share) << " % (target <= 1 %: " << (c.confidently_wrong_share <= 0.01 ? "met" : "NOT met")
+      << "); covariance " << c.verdict << "\n";
+  out << std::setprecision(3);
+}
+
+void write_localization_summary(std::ostream& out, const StateSummary& l, const std::optional<SimulatedEvent>& event) {
+  if (!l.samples) return;
+  const auto percent = [&](size_t n) { return 100.0 * static_cast<double>(n) / static_cast<double>(l.samples); };
+  out << std::setprecision(1);
+  out << "  localization state: tracking " << percent(l.tracking) << " %, uncertain " << percent(l.uncertain)
+      << " %, lost " << percent(l.lost) << " %, unknown " << percent(l.unknown) << " %; false alarms "
+      << std::setprecision(2) << 100.0 * l.false_alarm_share << " % of " << l.small_error_samples
+      << " estimates with a small error\n";
+  if (event) {
+    out << std::setprecision(1) << "  " << (event->kind == "kidnap" ? "kidnap" : "wrong start") << " at t = " << event->t
+        << " s, " << event->distance_m << " m: ";
+    if (l.detection_delay_s) {
+      out << "uncertain or lost after " << std::setprecision(2) << *l.detection_delay_s << " s";
+    } else {
+      out << "never reported uncertain or lost";
+    }
+    if (l.relocalization_delay_s) {
+      out << ", relocalized after " << std::setprecision(2) << *l.relocalization_delay_s << " s\n";
+    } else {
+      out << ", not relocalized\n";
+    }
+  }
+  out << std::setprecision(3);
 }
 
 void write_summary(std::ostream& out, const RunResult& r) {
@@ -79,6 +161,8 @@ void write_summary(std::ostream& out, const RunResult& r) {
   } else {
     out << "  not converged (the final error is above the threshold)\n";
   }
+  write_consistency_summary(out, s.consistency);
+  write_localization_summary(out, s.localization, r.event);
   out << std::defaultfloat;
 }
 

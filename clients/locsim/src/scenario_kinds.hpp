@@ -35,6 +35,9 @@ struct Command {
   std::vector<std::filesystem::path> plugin_directories;  // run, montecarlo
   LiveOptions live;                                   // live: domain, rate, server timeout
   int runs = 100;                                     // montecarlo
+  // Segment worlds: a kidnap at kidnap_at_s to a route pose at least kidnap_distance_m away, or a
+  // wrong start at least wrong_start_m off; either replaces the scenario's own kidnap / start.
+  std::optional<double> kidnap_at_s, kidnap_distance_m, wrong_start_m;
   std::vector<std::string> strategies = {"known_id", "nearest_neighbor", "jcbb", "pda"};  // montecarlo
 };
 

@@ -1,6 +1,9 @@
 // What `locsim` prints: one JSON object (--json) or a short human summary, and the plot.
 #pragma once
 
+#include <nlohmann/json_fwd.hpp>
+
+#include <optional>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -15,6 +18,18 @@ void write_json(std::ostream& out, const RunResult& result);
 // and with a plot file the plot, named on stderr (json) or stdout.
 void report_run(const RunResult& result, const FeatureMap2D& map, bool json, const std::string& plot_file);
 void write_summary(std::ostream& out, const RunResult& result);
+// The consistency and localization-state objects of the JSON (every scenario kind writes them):
+// "consistency": {estimates, nees_position_mean, nees_position_inside_95, nees_heading_mean,
+// nees_heading_inside_95, outside_99_share, heading_outside_99_share, confidently_wrong_share,
+// verdict}; "localization": {tracking_share, uncertain_share, lost_share, unknown_share,
+// small_error_estimates, false_alarm_share, and with an event: event, event_s, event_distance_m,
+// detection_delay_s, relocalization_delay_s}.
+nlohmann::ordered_json consistency_json(const ConsistencySummary& consistency);
+nlohmann::ordered_json localization_json(const StateSummary& localization, const std::optional<SimulatedEvent>& event);
+// The consistency and localization-state lines of the summary (every scenario kind prints them).
+void write_consistency_summary(std::ostream& out, const ConsistencySummary& consistency);
+void write_localization_summary(std::ostream& out, const StateSummary& localization,
+                                const std::optional<SimulatedEvent>& event);
 
 // Draws the map's walls, the truth path (green), the estimates (red), the start, a scale bar and
 // a legend to a PNG (OpenCV). Throws std::runtime_error if the file cannot be written.
