@@ -26,10 +26,11 @@ namespace {
 const char* kUsage =
     "usage:\n"
     "  locsim run SCENARIO.yaml [--json] [--plot FILE.png] [--plugin-dir DIR] [--seed N] [--duration S]\n"
-    "                  [--mcap OUT.mcap] [--rawlog FILE.rawlog]\n"
+    "                  [--mcap OUT.mcap] [--rawlog FILE.rawlog] [--trace FILE.csv]\n"
     "      offline: the scenario straight through the plugin, no DDS; --mcap records the run (sensors,\n"
     "      poses, ground truth) for Foxglove and locsim replay; --rawlog also writes the run as an MRPT\n"
-    "      rawlog (laser scenarios; needs carmen2rawlog from mrpt-apps)\n"
+    "      rawlog (laser scenarios; needs carmen2rawlog from mrpt-apps); --trace: every estimate with its\n"
+    "      covariance, NEES and localization state as CSV\n"
     "  locsim live SCENARIO.yaml [--domain N] [--rate X] [--duration S] [--seed N] [--json] [--plot FILE.png]\n"
     "              [--server-timeout S] [--ros2 NAMESPACE]\n"
     "      real time against a running locd (DDS through CYCLONEDDS_URI); --rate 2 runs twice as fast;\n"
@@ -163,6 +164,7 @@ Command parse(const std::vector<std::string>& args) {
   if (mode == "run") {
     app.add_option("--mcap", c.mcap_file);
     app.add_option("--rawlog", c.rawlog_file);
+    app.add_option("--trace", c.trace_file);
   }
   if (mode == "live") {
     app.add_option("--domain", text.domain);

@@ -3,10 +3,12 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 
 namespace locd::sim {
 
@@ -94,6 +96,23 @@ void report_run(const RunResult& result, const FeatureMap2D& map, bool json, con
   if (plot_file.empty()) return;
   plot_run(plot_file, map, result);
   (json ? std::cerr : std::cout) << "plot: " << plot_file << std::endl;
+}
+
+void write_trace(const std::string& csv_file, const RunResult& result) {
+  std::ofstream out(csv_file);
+  if (!out) throw std::runtime_error("cannot write trace '" + csv_file + "'");
+  out << "t_s,x_m,y_m,yaw_rad,truth_x_m,truth_y_m,truth_yaw_rad,error_m,heading_error_rad,var_x,var_y,cov_xy,var_yaw,"
+         "nees_position,nees_heading,state\n";
+  out << std::setprecision(9);
+  for (const ScoredEstimate& e : result.estimates) {
+    out << e.t << "," << e.estimate.x << "," << e.estimate.y << "," << e.estimate.theta << "," << e.truth.x << ","
+        << e.truth.y << "," << e.truth.theta << "," << e.position_error_m << "," << e.heading_error_rad << ","
+        << e.covariance(0, 0) << "," << e.covariance(1, 1) << "," << e.covariance(0, 1) << "," << e.covariance(2, 2)
+        << "," << e.nees.position << ",";
+    if (e.nees.heading) out << *e.nees.heading;
+    out << "," << localization_state_name(e.state) << "\n";
+  }
+  if (!out) throw std::runtime_error("cannot write trace '" + csv_file + "'");
 }
 
 void write_consistency_summary(std::ostream& out, const ConsistencySummary& c) {

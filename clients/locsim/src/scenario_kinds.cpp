@@ -87,6 +87,10 @@ int segment_world_run(const Command& c) {
     log_stream(c) << "recording: " << c.mcap_file << "\n";
   }
   report_run(result, scenario.map, c.json, c.plot_file);
+  if (!c.trace_file.empty()) {
+    write_trace(c.trace_file, result);
+    log_stream(c) << "trace: " << c.trace_file << "\n";
+  }
   if (!c.rawlog_file.empty()) {
     const grid::RawlogExport e = grid::export_rawlog(scenario, result.seed, result.duration_s, c.rawlog_file);
     log_stream(c) << "rawlog: " << e.rawlog.string() << " (" << e.scans << " scans; truth " << e.truth.string() << ")\n";
@@ -141,6 +145,9 @@ const ScenarioKind& kind_of(const std::filesystem::path& scenario_file) {
 
 int run_command(const Command& command) {
   const ScenarioKind& kind = kind_of(command.scenario_file);
+  if (!command.trace_file.empty() && &kind != &scenario_kinds().back()) {
+    throw UsageError("--trace writes segment-world runs (corridor, ceiling hall, grid worlds); not offered for " + kind.name);
+  }
   if (!command.mcap_file.empty() && &kind != &scenario_kinds().back()) {
     throw UsageError("--mcap records segment-world runs (corridor, ceiling hall); not offered for " + kind.name);
   }

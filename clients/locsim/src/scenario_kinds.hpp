@@ -29,6 +29,7 @@ struct Command {
   bool json = false;                                  // one JSON object on stdout
   std::string plot_file;                              // PNG, empty = none
   std::string mcap_file;                              // run: record the run into MCAP, empty = none
+  std::string trace_file;                             // run, live: every estimate as CSV, empty = none
   std::string rawlog_file;                            // run: also export as an MRPT rawlog
   std::optional<uint64_t> seed;                       // overrides the scenario's
   std::optional<double> duration_s;                   // overrides the scenario's

@@ -62,7 +62,7 @@ void LaserFeatureLocalizer::configure(const PluginContext& context, const Params
 
 void LaserFeatureLocalizer::configure(const PluginContext& context, const Config& config) {
   FeatureMap2D map = load_feature_map(context.maps.resolve(config.map).string(), context.limits.max_map_cells);
-  filter_ = std::make_unique<FeatureEkfFilter>(config.laser, std::move(map));
+  filter_ = std::make_unique<RelocalizingFeatureEkf>(config.laser, std::move(map));
 }
 
 void LaserFeatureLocalizer::set_pose(const PoseEstimate& estimate) {
@@ -85,14 +85,16 @@ UpdateResult LaserFeatureLocalizer::update(const Measurement& measurement) {
 }
 
 UpdateResult LaserFeatureLocalizer::on_scan(const LaserScan& scan) {
-  const ScanUpdateReport report = filter_->update(scan);
+  const ScanOutcome outcome = filter_->update(scan);
+  const ScanUpdateReport& report = outcome.report;
   UpdateResult result;
   PoseEstimate estimate;
   estimate.header.stamp_ns = scan.header.stamp_ns;
-  estimate.header.frame_id = filter_->map().frame_id;
+  estimate.header.frame_id = filter_->filter().map().frame_id;
   estimate.pose = Pose2::from_vector(filter_->pose()).to_isometry();
-  estimate.covariance = embed_covariance(filter_->covariance());
+  estimate.covariance = embed_covariance(filter_->published_covariance());
   result.estimate = estimate;
+  result.localization = outcome.localization;
 
   Diagnostics& d = result.diagnostics;
   const ExtractedFeatures& f = report.features;
@@ -103,7 +105,19 @@ UpdateResult LaserFeatureLocalizer::on_scan(const LaserScan& scan) {
               {"corners_matched", static_cast<double>(report.matched[1])},
               {"edges_matched", static_cast<double>(report.matched[2])},
               {"mean_nis", report.mean_nis}};
-  const FeatureMap2D& map = filter_->map();
+  const WindowStatistics& w = outcome.window;
+  if (outcome.statistics.agreement) d.values.push_back({"scan_agreement", *outcome.statistics.agreement});
+  if (w.mean_agreement) d.values.push_back({"window_scan_agreement", *w.mean_agreement});
+  if (w.association_share) d.values.push_back({"window_association_share", *w.association_share});
+  if (w.updates) d.values.push_back({"window_nis_mean", w.nis_sum / static_cast<double>(w.updates)});
+  if (outcome.search) {
+    d.values.push_back({"relocalization_hypotheses", static_cast<double>(outcome.search->tracked.size())});
+    if (!outcome.search->tracked.empty()) {
+      d.values.push_back({"relocalization_best_agreement", outcome.search->tracked.front().recent});
+    }
+    d.values.push_back({"relocalized", outcome.relocalized ? 1.0 : 0.0});
+  }
+  const FeatureMap2D& map = filter_->filter().map();
   for (size_t i = 0; i < report.associations.size(); ++i) {
     const Association& a = report.associations[i];
     AssociationRecord record;
@@ -124,7 +138,7 @@ UpdateResult LaserFeatureLocalizer::initial_outputs() const {
   UpdateResult result;
   if (!filter_) return result;
   std::vector<MapFeature> features;
-  const FeatureMap2D& map = filter_->map();
+  const FeatureMap2D& map = filter_->filter().map();
   for (const LineFeature& l : map.lines) features.push_back(planar_feature(l.id, "line", l.a, l.b));
   for (const PointFeature& p : map.corners) features.push_back(planar_feature(p.id, "corner", p.position, p.position));
   for (const PointFeature& p : map.edges) features.push_back(planar_feature(p.id, "edge", p.position, p.position));

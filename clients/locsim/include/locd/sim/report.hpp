@@ -18,6 +18,10 @@ void write_json(std::ostream& out, const RunResult& result);
 // and with a plot file the plot, named on stderr (json) or stdout.
 void report_run(const RunResult& result, const FeatureMap2D& map, bool json, const std::string& plot_file);
 void write_summary(std::ostream& out, const RunResult& result);
+// Every scored estimate as CSV: time, estimate, truth, errors, the reported (x, y, yaw) covariance,
+// NEES and state. Throws std::runtime_error if the file cannot be written.
+void write_trace(const std::string& csv_file, const RunResult& result);
+
 // The consistency and localization-state objects of the JSON (every scenario kind writes them):
 // "consistency": {estimates, nees_position_mean, nees_position_inside_95, nees_heading_mean,
 // nees_heading_inside_95, outside_99_share, heading_outside_99_share, confidently_wrong_share,
