@@ -1,5 +1,7 @@
 #include "locd/sim/report.hpp"
 
+#include "locd/sim/evaluation_report.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -12,39 +14,11 @@
 
 namespace locd::sim {
 
-nlohmann::ordered_json consistency_json(const ConsistencySummary& c) {
-  const auto optional = [](const std::optional<double>& v) {
-    return v ? nlohmann::ordered_json(*v) : nlohmann::ordered_json(nullptr);
-  };
-  return {{"estimates", c.samples},
-          {"nees_position_mean", c.nees_position_mean},
-          {"nees_position_inside_95", c.position_inside_95_share},
-          {"nees_heading_mean", optional(c.nees_heading_mean)},
-          {"nees_heading_inside_95", optional(c.heading_inside_95_share)},
-          {"outside_99_share", c.outside_99_share},
-          {"heading_outside_99_share", c.heading_samples ? nlohmann::ordered_json(c.heading_outside_99_share)
-                                                         : nlohmann::ordered_json(nullptr)},
-          {"confidently_wrong_share", c.confidently_wrong_share},
-          {"verdict", c.verdict}};
-}
-
 nlohmann::ordered_json localization_json(const StateSummary& l, const std::optional<SimulatedEvent>& event) {
-  const auto optional = [](const std::optional<double>& v) {
-    return v ? nlohmann::ordered_json(*v) : nlohmann::ordered_json(nullptr);
-  };
-  const auto share = [&](size_t n) { return l.samples ? static_cast<double>(n) / static_cast<double>(l.samples) : 0.0; };
-  nlohmann::ordered_json json = {{"tracking_share", share(l.tracking)},
-                                 {"uncertain_share", share(l.uncertain)},
-                                 {"lost_share", share(l.lost)},
-                                 {"unknown_share", share(l.unknown)},
-                                 {"small_error_estimates", l.small_error_samples},
-                                 {"false_alarm_share", l.false_alarm_share}};
+  nlohmann::ordered_json json = state_json(l);
   if (event) {
     json["event"] = event->kind;
-    json["event_s"] = event->t;
     json["event_distance_m"] = event->distance_m;
-    json["detection_delay_s"] = optional(l.detection_delay_s);
-    json["relocalization_delay_s"] = optional(l.relocalization_delay_s);
   }
   return json;
 }
@@ -115,33 +89,9 @@ void write_trace(const std::string& csv_file, const RunResult& result) {
   if (!out) throw std::runtime_error("cannot write trace '" + csv_file + "'");
 }
 
-void write_consistency_summary(std::ostream& out, const ConsistencySummary& c) {
-  if (!c.samples) return;
-  const auto percent = [](double share) { return 100.0 * share; };
-  out << std::setprecision(2);
-  out << "  consistency: position NEES mean " << c.nees_position_mean << " (2 if consistent), "
-      << percent(c.position_inside_95_share) << " % inside its 95 % bound";
-  if (c.nees_heading_mean) {
-    out << "; heading NEES mean " << *c.nees_heading_mean << " (1), " << percent(*c.heading_inside_95_share)
-        << " % inside";
-  } else {
-    out << "; no heading variance reported";
-  }
-  out << "\n  outside the 99 % ellipse " << percent(c.outside_99_share) << " %, confidently wrong "
-      << percent(c.confidently_wrong_share) << " % (target <= 1 %: " << (c.confidently_wrong_share <= 0.01 ? "met" : "NOT met")
-      << "); covariance " << c.verdict << "\n";
-  out << std::setprecision(3);
-}
-
 void write_localization_summary(std::ostream& out, const StateSummary& l, const std::optional<SimulatedEvent>& event) {
-  if (!l.samples) return;
-  const auto percent = [&](size_t n) { return 100.0 * static_cast<double>(n) / static_cast<double>(l.samples); };
-  out << std::setprecision(1);
-  out << "  localization state: tracking " << percent(l.tracking) << " %, uncertain " << percent(l.uncertain)
-      << " %, lost " << percent(l.lost) << " %, unknown " << percent(l.unknown) << " %; false alarms "
-      << std::setprecision(2) << 100.0 * l.false_alarm_share << " % of " << l.small_error_samples
-      << " estimates with a small error\n";
-  if (event) {
+  write_state_summary(out, l);
+  if (event && l.samples) {
     out << std::setprecision(1) << "  " << (event->kind == "kidnap" ? "kidnap" : "wrong start") << " at t = " << event->t
         << " s, " << event->distance_m << " m: ";
     if (l.detection_delay_s) {

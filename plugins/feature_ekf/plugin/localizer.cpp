@@ -1,5 +1,6 @@
 #include "localizer.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <string>
 
@@ -157,6 +158,7 @@ void LandmarkLocalizer::configure(const PluginContext& context, const Config& co
       load_landmark_database(context.maps.resolve(config.landmarks).string(), context.limits.max_map_cells);
   frame_id_ = config.frame_id;
   filter_ = std::make_unique<LandmarkEkfFilter>(config.landmark, std::move(database));
+  monitor_ = LocalizationMonitor(config.landmark.monitor);
 }
 
 void LandmarkLocalizer::set_pose(const PoseEstimate& estimate) {
@@ -170,6 +172,7 @@ void LandmarkLocalizer::set_pose(const PoseEstimate& estimate) {
   const double v = filter_->config().initial_velocity_stddev;
   covariance.bottomRightCorner<2, 2>() = v * v * Eigen::Matrix2d::Identity();
   filter_->set_state_enu(estimate.pose.translation().head<2>(), estimate.linear_velocity.head<2>(), covariance);
+  monitor_.reset();
 }
 
 // IMU only predicts: it returns no estimate (the pose is published once per detection frame).
@@ -203,6 +206,15 @@ UpdateResult LandmarkLocalizer::on_detections(const LandmarkDetections& detectio
 
   const Eigen::Vector2d geodetic = filter_->model().area().to_geodetic(position);
   const Eigen::Matrix4d P = filter_->covariance_enu();
+  ScanStatistics frame;
+  for (const DetectionReport& r : report.detections) {
+    ++frame.extracted;
+    if (r.landmark >= 0) ++frame.associated;
+    if (r.applied && r.mahalanobis2 >= 0.0) frame.nis.push_back(r.mahalanobis2);
+  }
+  frame.position_stddev = std::sqrt(
+      std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(P.topLeftCorner<2, 2>()).eigenvalues().maxCoeff()));
+  result.localization = monitor_.add(frame);
   Diagnostics& d = result.diagnostics;
   size_t hypotheses = 0, in_gate = 0;
   for (const DetectionReport& r : report.detections) {

@@ -39,6 +39,7 @@ class LandmarkLocalizer : public Localizer {
  private:
   UpdateResult on_detections(const LandmarkDetections& detections);
   std::unique_ptr<LandmarkEkfFilter> filter_;
+  LocalizationMonitor monitor_;  // over detection frames: association share and NIS (no scan agreement)
   std::string frame_id_ = "map";
 };
 

@@ -15,6 +15,22 @@ Eigen::Vector3d vector3(const std::vector<double>& v) { return {v[0], v[1], v[2]
 constexpr double kMaxCentreLatitude = 85.0;
 constexpr double kMaxLongitude = 180.0;
 
+// localization: the state criteria (both models; the landmark models have no scan agreement).
+void read_monitor_config(const Params& monitor, MonitorConfig& m) {
+  const Range share = Range::closed(0.0, 1.0);
+  monitor.expect_only({"window_scans", "lost_window_scans", "lost_agreement", "min_agreement", "lost_association_share",
+                       "min_association_share", "min_window_features", "nis_probability", "max_tracking_stddev"});
+  m.window_scans = static_cast<int>(monitor.integer("window_scans", m.window_scans, 1, 10000));
+  m.lost_window_scans = static_cast<int>(monitor.integer("lost_window_scans", m.lost_window_scans, 1, m.window_scans));
+  m.lost_agreement = monitor.number("lost_agreement", m.lost_agreement, share);
+  m.min_agreement = monitor.number("min_agreement", m.min_agreement, share);
+  m.lost_association_share = monitor.number("lost_association_share", m.lost_association_share, share);
+  m.min_association_share = monitor.number("min_association_share", m.min_association_share, share);
+  m.min_window_features = static_cast<int>(monitor.integer("min_window_features", m.min_window_features, 1, 1000000));
+  m.nis_probability = monitor.number("nis_probability", m.nis_probability, Range::open(0.0, 1.0));
+  m.max_tracking_stddev = monitor.number("max_tracking_stddev", m.max_tracking_stddev, Range::positive());
+}
+
 // scan_agreement, localization (the state criteria) and global_search (relocalization).
 void read_state_config(const Params& params, FeatureEkfConfig& c) {
   const Range positive = Range::positive(), non_negative = Range::non_negative(), share = Range::closed(0.0, 1.0);
@@ -26,19 +42,7 @@ void read_state_config(const Params& params, FeatureEkfConfig& c) {
   a.tolerance = agreement.number("tolerance", a.tolerance, positive);
   a.tolerance_per_metre = agreement.number("tolerance_per_metre", a.tolerance_per_metre, non_negative);
 
-  const Params monitor = params.child("localization");
-  monitor.expect_only({"window_scans", "lost_window_scans", "lost_agreement", "min_agreement", "lost_association_share",
-                       "min_association_share", "min_window_features", "nis_probability", "max_tracking_stddev"});
-  MonitorConfig& m = c.monitor;
-  m.window_scans = static_cast<int>(monitor.integer("window_scans", m.window_scans, 1, 10000));
-  m.lost_window_scans = static_cast<int>(monitor.integer("lost_window_scans", m.lost_window_scans, 1, m.window_scans));
-  m.lost_agreement = monitor.number("lost_agreement", m.lost_agreement, share);
-  m.min_agreement = monitor.number("min_agreement", m.min_agreement, share);
-  m.lost_association_share = monitor.number("lost_association_share", m.lost_association_share, share);
-  m.min_association_share = monitor.number("min_association_share", m.min_association_share, share);
-  m.min_window_features = static_cast<int>(monitor.integer("min_window_features", m.min_window_features, 1, 1000000));
-  m.nis_probability = monitor.number("nis_probability", m.nis_probability, Range::open(0.0, 1.0));
-  m.max_tracking_stddev = monitor.number("max_tracking_stddev", m.max_tracking_stddev, positive);
+  read_monitor_config(params.child("localization"), c.monitor);
 
   const Params search = params.child("global_search");
   search.expect_only({"enabled", "min_pair_angle", "angle_tolerance", "max_pair_distance", "max_map_pairs", "interval_s",
@@ -129,7 +133,7 @@ LandmarkEkfConfig landmark_config(const Params& params, LandmarkModelKind model)
   params.expect_only({"model", "landmarks", "association", "gate_threshold", "false_detection_probability",
                       "jcbb_max_nodes", "centre", "altitude", "velocity_noise_per_step", "position_noise_per_step",
                       "detection_stddev", "initial_position", "initial_velocity", "initial_stddev", "max_imu_gap",
-                      "frame_id"});
+                      "frame_id", "localization"});
   LandmarkEkfConfig c;
   c.model = model;
   const Range positive = Range::positive(), non_negative = Range::non_negative();
@@ -161,6 +165,7 @@ LandmarkEkfConfig landmark_config(const Params& params, LandmarkModelKind model)
   c.initial_position_stddev = s0[0];
   c.initial_velocity_stddev = s0[1];
   c.max_imu_gap = params.number("max_imu_gap", c.max_imu_gap, positive);
+  read_monitor_config(params.child("localization"), c.monitor);
   return c;
 }
 

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "locd/sdk/feature_map.hpp"
+#include "locd/sim/evaluation_report.hpp"
 #include "locd/sim/offline_runner.hpp"
 
 namespace locd::sim {
@@ -22,16 +23,9 @@ void write_summary(std::ostream& out, const RunResult& result);
 // NEES and state. Throws std::runtime_error if the file cannot be written.
 void write_trace(const std::string& csv_file, const RunResult& result);
 
-// The consistency and localization-state objects of the JSON (every scenario kind writes them):
-// "consistency": {estimates, nees_position_mean, nees_position_inside_95, nees_heading_mean,
-// nees_heading_inside_95, outside_99_share, heading_outside_99_share, confidently_wrong_share,
-// verdict}; "localization": {tracking_share, uncertain_share, lost_share, unknown_share,
-// small_error_estimates, false_alarm_share, and with an event: event, event_s, event_distance_m,
-// detection_delay_s, relocalization_delay_s}.
-nlohmann::ordered_json consistency_json(const ConsistencySummary& consistency);
+// The localization object of evaluation_report.hpp plus the event's kind and distance.
 nlohmann::ordered_json localization_json(const StateSummary& localization, const std::optional<SimulatedEvent>& event);
-// The consistency and localization-state lines of the summary (every scenario kind prints them).
-void write_consistency_summary(std::ostream& out, const ConsistencySummary& consistency);
+// The state line of evaluation_report.hpp plus the event's line.
 void write_localization_summary(std::ostream& out, const StateSummary& localization,
                                 const std::optional<SimulatedEvent>& event);
 

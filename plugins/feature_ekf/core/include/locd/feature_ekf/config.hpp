@@ -145,6 +145,13 @@ struct LandmarkEkfConfig {
   double initial_position_stddev = 5.0;       // m
   double initial_velocity_stddev = 0.5;       // m/s
   double max_imu_gap = 0.1;                   // s; a longer gap restarts the prediction
+  // The localization state over detection frames: association share and NIS (no scan, so no
+  // agreement criterion); positions are metres of a GNSS-free vehicle, hence the wider stddev.
+  MonitorConfig monitor = [] {
+    MonitorConfig m;
+    m.max_tracking_stddev = 10.0;
+    return m;
+  }();
 };
 
 // ------------------------------------------------------------------ the plugin's config
