@@ -19,7 +19,8 @@ constexpr double kMaxLongitude = 180.0;
 void read_monitor_config(const Params& monitor, MonitorConfig& m) {
   const Range share = Range::closed(0.0, 1.0);
   monitor.expect_only({"window_scans", "lost_window_scans", "lost_agreement", "min_agreement", "lost_association_share",
-                       "min_association_share", "min_window_features", "nis_probability", "max_tracking_stddev"});
+                       "min_association_share", "min_window_features", "nis_probability", "max_tracking_stddev",
+                       "lost_after_uncertain_scans"});
   m.window_scans = static_cast<int>(monitor.integer("window_scans", m.window_scans, 1, 10000));
   m.lost_window_scans = static_cast<int>(monitor.integer("lost_window_scans", m.lost_window_scans, 1, m.window_scans));
   m.lost_agreement = monitor.number("lost_agreement", m.lost_agreement, share);
@@ -29,6 +30,8 @@ void read_monitor_config(const Params& monitor, MonitorConfig& m) {
   m.min_window_features = static_cast<int>(monitor.integer("min_window_features", m.min_window_features, 1, 1000000));
   m.nis_probability = monitor.number("nis_probability", m.nis_probability, Range::open(0.0, 1.0));
   m.max_tracking_stddev = monitor.number("max_tracking_stddev", m.max_tracking_stddev, Range::positive());
+  m.lost_after_uncertain_scans =
+      static_cast<int>(monitor.integer("lost_after_uncertain_scans", m.lost_after_uncertain_scans, 0, 1000000));
 }
 
 // scan_agreement, localization (the state criteria) and global_search (relocalization).

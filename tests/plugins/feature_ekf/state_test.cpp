@@ -67,7 +67,7 @@ TEST(LocalizationMonitor, TrackingOnGoodScans) {
   LocalizationAssessment a;
   for (int i = 0; i < 30; ++i) a = monitor.add(good_scan());
   EXPECT_EQ(a.state, LocalizationState::kTracking) << a.reason;
-  EXPECT_NE(a.reason.find("scan agrees 98 %"), std::string::npos) << a.reason;
+  EXPECT_NE(a.reason.find("scan agrees 98.0 %"), std::string::npos) << a.reason;
   const WindowStatistics w = monitor.statistics();
   EXPECT_EQ(w.scans, 25u);
   EXPECT_EQ(w.updates, 100u);
@@ -97,7 +97,7 @@ TEST(LocalizationMonitor, LostWithinTheShortWindow) {
   unassociated.nis.clear();
   for (int i = 0; i < 5; ++i) a = by_features.add(unassociated);
   EXPECT_EQ(a.state, LocalizationState::kLost);
-  EXPECT_NE(a.reason.find("features associated 0 %"), std::string::npos) << a.reason;
+  EXPECT_NE(a.reason.find("features associated 0.0 %"), std::string::npos) << a.reason;
 }
 
 TEST(LocalizationMonitor, UncertainCriteria) {
@@ -124,10 +124,32 @@ TEST(LocalizationMonitor, UncertainCriteria) {
 
   LocalizationMonitor half;
   s = good_scan();
-  s.agreement = 0.85;  // above lost (75 %), below tracking (90 %)
-  for (int i = 0; i < 25; ++i) a = half.add(s);
+  s.agreement = 0.85;  // above lost (75 %), below tracking (95 %)
+  for (int i = 0; i < 5; ++i) a = half.add(s);
   EXPECT_EQ(a.state, LocalizationState::kUncertain);
-  EXPECT_NE(a.reason.find("85 % < 90 %"), std::string::npos) << a.reason;
+  EXPECT_NE(a.reason.find("85.0 % < 95.0 %"), std::string::npos) << a.reason;
+}
+
+// Uncertain for lost_after_uncertain_scans scans in a row becomes lost (the search takes over).
+TEST(LocalizationMonitor, LongUncertaintyBecomesLost) {
+  MonitorConfig config;
+  config.lost_after_uncertain_scans = 10;
+  LocalizationMonitor monitor(config);
+  ScanStatistics s = good_scan();
+  s.agreement = 0.85;
+  LocalizationAssessment a;
+  for (int i = 0; i < 9; ++i) {
+    a = monitor.add(s);
+    EXPECT_EQ(a.state, LocalizationState::kUncertain) << i;
+  }
+  a = monitor.add(s);
+  EXPECT_EQ(a.state, LocalizationState::kLost);
+  EXPECT_NE(a.reason.find("uncertain for 10 scans in a row"), std::string::npos) << a.reason;
+  // A tracking scan in between starts the count again.
+  monitor.reset();
+  for (int i = 0; i < 30; ++i) a = monitor.add(good_scan());
+  for (int i = 0; i < 5; ++i) a = monitor.add(s);
+  EXPECT_NE(a.state, LocalizationState::kLost);
 }
 
 // A robot at a corner of the corridor sees two walls at right angles: one of the hypotheses from

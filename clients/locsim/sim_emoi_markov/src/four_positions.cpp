@@ -11,6 +11,7 @@
 #include "params.hpp"
 #include "locd/emoi_markov/dsm_writer.hpp"
 #include "locd/sdk/errors.hpp"
+#include "locd/sim/evaluation_report.hpp"
 #include "locd/sdk/plugin_config.hpp"
 #include "locd/sdk/plugin_loader.hpp"
 
@@ -129,6 +130,7 @@ RunResult drive(const FourPositionsScenario& scenario, const SimulatedRun& run, 
   RunResult result;
   result.seed = seed;
   double update_ms_total = 0.0;
+  LocalizationState state = LocalizationState::kUnknown;
   simulate_measurements(scenario, run, seed, [&](const Measurement& m, const Eigen::Isometry3d& truth) {
     const auto t0 = std::chrono::steady_clock::now();
     UpdateResult out;
@@ -137,6 +139,7 @@ RunResult drive(const FourPositionsScenario& scenario, const SimulatedRun& run, 
     } catch (const InputError&) {
       return false;
     }
+    if (out.localization) state = out.localization->state;
     // A sensor update is the one that publishes the belief grid.
     if (!out.grid || !out.estimate) return false;
     update_ms_total += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -146,6 +149,9 @@ RunResult drive(const FourPositionsScenario& scenario, const SimulatedRun& run, 
     record.truth = truth.translation().head<2>();
     record.mode = out.estimate->pose.translation().head<2>();
     record.error_m = (record.mode - record.truth).norm();
+    record.nees = nees(Pose2::from_isometry(out.estimate->pose), Pose2::from_isometry(truth),
+                       planar_covariance(out.estimate->covariance));
+    record.state = state;
     for (const auto& [name, value] : out.diagnostics.values) {
       if (name.rfind("coverage_r", 0) == 0) record.coverage.push_back(value);
       if (name.rfind("emoi_r", 0) == 0) record.robot_emoi.push_back(value);
@@ -260,6 +266,18 @@ int locsim_run_four_positions(const fs::path& file, const std::vector<fs::path>&
     results.push_back(std::move(r));
   }
   const double rate = seeds.empty() ? 0.0 : static_cast<double>(successes) / static_cast<double>(seeds.size());
+  // Consistency and the state over every counted update of every seed (a small error: within the
+  // success radius).
+  std::vector<ConsistencySample> consistency;
+  std::vector<StateSample> states;
+  for (const RunResult& r : results) {
+    for (const UpdateRecord& u : r.updates) {
+      consistency.push_back({u.nees, u.state});
+      states.push_back({static_cast<double>(states.size()), u.error_m, u.state});
+    }
+  }
+  const ConsistencySummary consistency_summary = summarize_consistency(consistency);
+  const StateSummary state_summary = evaluate_states(states, {scenario.success_radius_m, std::nullopt});
   if (json) {
     std::vector<std::vector<double>> errors;
     for (const RunResult& r : results) {
@@ -273,11 +291,15 @@ int locsim_run_four_positions(const fs::path& file, const std::vector<fs::path>&
                                             {"success_rate", rate},
                                             {"success_radius_m", scenario.success_radius_m},
                                             {"updates", scenario.updates},
-                                            {"errors_m", errors}};
+                                            {"errors_m", errors},
+                                            {"consistency", consistency_json(consistency_summary)},
+                                            {"localization", state_json(state_summary)}};
     out << summary.dump() << "\n";
   } else {
     out << "success: " << successes << " / " << seeds.size() << " (belief maximum within " << scenario.success_radius_m
         << " m of the truth after update " << scenario.updates << ")\n";
+    write_consistency_summary(out, consistency_summary);
+    write_state_summary(out, state_summary);
   }
   return complete ? 0 : 1;
 }

@@ -10,7 +10,7 @@ namespace locd::feature_ekf {
 namespace {
 std::string percent(double share) {
   char text[32];
-  std::snprintf(text, sizeof(text), "%.0f %%", 100.0 * share);
+  std::snprintf(text, sizeof(text), "%.1f %%", 100.0 * share);
   return text;
 }
 std::string number(double v, int digits = 2) {
@@ -56,6 +56,16 @@ WindowStatistics LocalizationMonitor::statistics(size_t scans) const {
 LocalizationAssessment LocalizationMonitor::add(const ScanStatistics& scan) {
   window_.push_back(scan);
   while (window_.size() > static_cast<size_t>(config_.window_scans)) window_.pop_front();
+  LocalizationAssessment a = judge();
+  uncertain_in_a_row_ = a.state == LocalizationState::kUncertain ? uncertain_in_a_row_ + 1 : 0;
+  if (config_.lost_after_uncertain_scans > 0 && uncertain_in_a_row_ >= config_.lost_after_uncertain_scans) {
+    a = {LocalizationState::kLost,
+         "uncertain for " + std::to_string(uncertain_in_a_row_) + " scans in a row: " + a.reason};
+  }
+  return a;
+}
+
+LocalizationAssessment LocalizationMonitor::judge() const {
   const WindowStatistics recent = statistics(static_cast<size_t>(config_.lost_window_scans));
   const std::string over_recent = " over the last " + std::to_string(recent.scans) + " scans";
   if (recent.mean_agreement && *recent.mean_agreement < config_.lost_agreement) {

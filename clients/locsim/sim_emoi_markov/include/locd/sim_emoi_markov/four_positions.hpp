@@ -14,6 +14,7 @@
 
 #include "locd/emoi_markov/emoi_markov_filter.hpp"
 #include "locd/sdk/plugin.hpp"
+#include "locd/sim/consistency.hpp"
 #include "locd/sim_emoi_markov/synthetic_dsm.hpp"
 #include "locd/sim_emoi_markov/terrain_robot.hpp"
 #include "locd/sim_emoi_markov/tilting_laser.hpp"
@@ -53,6 +54,8 @@ struct UpdateRecord {
   std::vector<double> coverage;
   std::vector<double> robot_emoi;     // per radius, from the local map
   std::vector<double> dsm_emoi;       // per radius, the DSM layer at the true position
+  Nees nees;                          // of the estimate against its reported covariance
+  LocalizationState state = LocalizationState::kUnknown;  // the plugin's last judgement
 };
 
 struct RunResult {

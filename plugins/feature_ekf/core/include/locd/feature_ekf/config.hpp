@@ -64,12 +64,13 @@ struct MonitorConfig {
   int window_scans = 25;                 // 1 s of a 25 Hz laser: the window of the uncertain criteria
   int lost_window_scans = 5;             // the last 0.2 s: the window of the lost criteria
   double lost_agreement = 0.75;          // mean scan agreement below it: lost
-  double min_agreement = 0.9;            // below it: uncertain
+  double min_agreement = 0.95;           // below it: uncertain
   double lost_association_share = 0.2;   // associated / extracted features below it: lost
   double min_association_share = 0.5;    // below it: uncertain
   int min_window_features = 10;          // fewer features in a window: no association verdict
   double nis_probability = 0.999;        // NIS sum above chi2(2 n) at this probability: uncertain
   double max_tracking_stddev = 0.5;      // m, largest position stddev; above it: uncertain
+  int lost_after_uncertain_scans = 25;   // uncertain this many scans in a row: lost (0 = never)
 };
 
 // Relocalization by a global search of the feature map when lost (global_search.hpp).
@@ -150,6 +151,7 @@ struct LandmarkEkfConfig {
   MonitorConfig monitor = [] {
     MonitorConfig m;
     m.max_tracking_stddev = 10.0;
+    m.lost_after_uncertain_scans = 0;  // no search to hand over to
     return m;
   }();
 };

@@ -11,6 +11,9 @@
 //              applied update 2 dof) above the chi-square quantile of nis_probability for 2 n dof;
 //              or the largest position stddev above max_tracking_stddev
 //   tracking   otherwise
+//   lost       also after lost_after_uncertain_scans uncertain scans in a row: a filter that has
+//              been unsure for a while is not trusted to find its way back alone (a corridor
+//              that merely resembles the right one keeps it uncertain, never lost)
 //
 // A scan without a verdict on a criterion (no informative beams, no features) leaves that
 // criterion to the others. The reason names the criterion and its value.
@@ -53,7 +56,10 @@ class LocalizationMonitor {
 
   // Adds a scan and judges the window.
   LocalizationAssessment add(const ScanStatistics& scan);
-  void reset() { window_.clear(); }
+  void reset() {
+    window_.clear();
+    uncertain_in_a_row_ = 0;
+  }
   // The last `scans` scans (all of the window by default).
   WindowStatistics statistics(size_t scans = SIZE_MAX) const;
   const MonitorConfig& config() const { return config_; }
@@ -61,8 +67,11 @@ class LocalizationMonitor {
  private:
   double nis_threshold(size_t dof) const;  // chi-square quantile of nis_probability, cached by dof
 
+  LocalizationAssessment judge() const;  // the window's state, before the escalation
+
   MonitorConfig config_;
   std::deque<ScanStatistics> window_;
+  int uncertain_in_a_row_ = 0;
   mutable std::vector<double> thresholds_;
 };
 
