@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <iomanip>
 
 #include "locd/sim/report.hpp"
@@ -87,10 +88,14 @@ MonteCarloSummary run_seeds(const Scenario& scenario, const OfflineRunOptions& o
                 << 100.0 * r.summary.consistency.confidently_wrong_share << " %";
       if (r.event) {
         const StateSummary& l = r.summary.localization;
+        const auto seconds = [](const std::optional<double>& v) {
+          if (!v) return std::string("never");
+          char text[32];
+          std::snprintf(text, sizeof(text), "%.2f s", *v);
+          return std::string(text);
+        };
         *progress << ", " << r.event->kind << " " << r.event->distance_m << " m: detected "
-                  << (l.detection_delay_s ? std::to_string(*l.detection_delay_s) + " s" : std::string("never"))
-                  << ", relocalized "
-                  << (l.relocalization_delay_s ? std::to_string(*l.relocalization_delay_s) + " s" : std::string("never"));
+                  << seconds(l.detection_delay_s) << ", relocalized " << seconds(l.relocalization_delay_s);
       }
       *progress << std::endl;
     }
