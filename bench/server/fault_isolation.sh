@@ -17,17 +17,7 @@ cd "$(dirname "$0")/../.."
 part="${1:-all}"
 duration="${2:-40}"
 bin="$PWD/build/bin"
-ns="locd_fault_bench_$$"
-work="$(mktemp -d)"
-ip netns add "$ns"
-ip netns exec "$ns" ip link set lo up
-cleanup() {
-  ip netns pids "$ns" 2>/dev/null | xargs -r kill -9 2>/dev/null || true
-  ip netns del "$ns" 2>/dev/null || true
-  rm -rf "$work"
-}
-trap cleanup EXIT
-run() { ip netns exec "$ns" env CYCLONEDDS_URI="file://$PWD/config/dds/loopback.xml" "$@"; }
+source bench/lib/loopback_namespace.sh
 
 mkdir -p "$work/state"
 cat > "$work/locd.yaml" <<EOF

@@ -14,17 +14,7 @@ cd "$(dirname "$0")/../.."
 before="$1"
 after="$2"
 rounds="${3:-3}"
-ns="locd_cost_bench_$$"
-work="$(mktemp -d)"
-ip netns add "$ns"
-ip netns exec "$ns" ip link set lo up
-cleanup() {
-  ip netns pids "$ns" 2>/dev/null | xargs -r kill -9 2>/dev/null || true
-  ip netns del "$ns" 2>/dev/null || true
-  rm -rf "$work"
-}
-trap cleanup EXIT
-run() { ip netns exec "$ns" env CYCLONEDDS_URI="file://$PWD/config/dds/loopback.xml" "$@"; }
+source bench/lib/loopback_namespace.sh
 field() { sed -n "s/.*\"$1\":\([^,}]*\).*/\1/p" "$2"; }
 
 measure() {  # BUILD_DIR LABEL

@@ -30,11 +30,12 @@ Wire zeroed() {
 
 }  // namespace
 
-Header from_wire(const locd_msg_MessageHeader& h) { return {h.stamp_ns, to_string(h.frame_id)}; }
+Header from_wire(const locd_msg_MessageHeader& h) { return {h.stamp_ns, to_string(h.frame_id), h.sequence_number}; }
 
 void to_wire(const Header& h, locd_msg_MessageHeader& out) {
   out.stamp_ns = h.stamp_ns;
   copy_string(out.frame_id, h.frame_id);
+  out.sequence_number = h.sequence;
 }
 
 Eigen::Isometry3d from_wire(const locd_msg_Pose3D& p) {

@@ -45,6 +45,11 @@ std::unique_ptr<dds_qos_t, QosDeleter> make_qos(QosProfile profile, int depth) {
       dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, 1);
       dds_qset_durability(qos.get(), DDS_DURABILITY_TRANSIENT_LOCAL);
       break;
+    case QosProfile::kServerState:
+      dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, 1);
+      dds_qset_durability(qos.get(), DDS_DURABILITY_TRANSIENT_LOCAL);
+      dds_qset_liveliness(qos.get(), DDS_LIVELINESS_AUTOMATIC, DDS_MSECS(kServerLeaseMs));
+      break;
     case QosProfile::kRos2SensorData:
       dds_qset_reliability(qos.get(), DDS_RELIABILITY_BEST_EFFORT, 0);
       dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, depth);

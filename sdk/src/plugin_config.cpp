@@ -16,7 +16,7 @@ void check_plugin_name(const std::string& name, const std::string& what) {
 }
 
 PluginConfig split_plugin_config(const Params& document, const std::string& source_name) {
-  document.expect_only({"plugin", "params", "ros2"});
+  document.expect_only({"plugin", "params", "ros2", "server_group"});
   if (!document.has("plugin")) {
     throw ConfigError(source_name + ": key 'plugin' is missing; expected 'plugin: <name>' and 'params:'");
   }
@@ -24,10 +24,12 @@ PluginConfig split_plugin_config(const Params& document, const std::string& sour
   check_plugin_name(plugin, source_name + " (" + document.where("plugin") + ")");
   std::optional<Ros2Config> ros2;
   if (document.has("ros2")) ros2 = parse_ros2_config(document.child("ros2"));
-  if (!document.has("params")) return {plugin, Params(YAML::Node(YAML::NodeType::Map), plugin), ros2};
+  const std::string group = document.text("server_group", "");
+  if (group.size() > 64) document.fail("server_group", "is longer than 64 characters");
+  if (!document.has("params")) return {plugin, Params(YAML::Node(YAML::NodeType::Map), plugin), ros2, group};
   const YAML::Node params = document.node()["params"];
   if (!params.IsMap()) document.fail("params", "is not a map; expected the plugin's parameters as 'key: value' lines");
-  return {plugin, Params(params, plugin), ros2};
+  return {plugin, Params(params, plugin), ros2, group};
 }
 
 PluginConfig split_plugin_config(const std::string& yaml_text, const std::string& source_name) {

@@ -9,7 +9,9 @@
 #include "locd/dds/topics.hpp"
 #include "locd/sdk/robot_id.hpp"
 #include "locd/sdk/text.hpp"
+#include "locd/sdk/validate.hpp"
 #include "locd/server/server.hpp"
+#include "locd/server/session.hpp"
 
 namespace locd::server {
 namespace {
@@ -98,12 +100,18 @@ struct DdsBridge::Readers {
   dds::Reader<locd_msg_SessionRequest> session_request;
   dds::Reader<locd_msg_InitialPose> initial_pose;
   dds::Reader<locd_msg_MapSaveRequest> map_save_request;
+  // The fleet's other servers.
+  dds::Reader<locd_msg_ServerInfo> servers;
+  dds::Reader<locd_msg_ServingClaim> claims;
+  dds::Reader<locd_msg_ResumeState> resume_states;
 };
 
 DdsBridge::DdsBridge(int domain_id, std::string server_id, const Limits& limits, Logger& logger, size_t max_robots)
     : server_id_(std::move(server_id)), limits_(limits), logger_(logger), max_robots_(std::max<size_t>(1, max_robots)),
       participant_(static_cast<dds_domainid_t>(domain_id)),
-      server_info_(participant_, topics::kServerInfo, dds::QosProfile::kState) {}
+      server_info_(participant_, topics::kServerInfo, dds::QosProfile::kServerState),
+      claims_(participant_, topics::kServingClaim, dds::QosProfile::kServerState),
+      resume_states_(participant_, topics::kResumeState, dds::QosProfile::kState) {}
 
 DdsBridge::~DdsBridge() { disconnect(); }
 
@@ -236,6 +244,45 @@ void DdsBridge::connect(Server& server) {
       [&server](const std::string& robot_id, const locd_msg_MapSaveRequest& sample) {
         server.on_map_save_request(robot_id, sample.request_id);
       });
+  // The fleet: servers come (ServerInfo) and go (its writer's liveliness lapses), claim robots
+  // and withdraw claims (disposed, or gone with their server), and share resume states.
+  readers->servers = dds::Reader<locd_msg_ServerInfo>(
+      participant_, topics::kServerInfo, dds::QosProfile::kState,
+      [&server](const locd_msg_ServerInfo& m) {
+        server.on_server_alive({dds::to_string(m.server_id), m.weight > 0.0 ? m.weight : 1.0,
+                                dds::to_string(m.server_group)});
+      },
+      8, {}, nullptr,
+      [&server](const locd_msg_ServerInfo& key, dds::InstanceGone) { server.on_server_gone(dds::to_string(key.server_id)); });
+  readers->claims = dds::Reader<locd_msg_ServingClaim>(
+      participant_, topics::kServingClaim, dds::QosProfile::kState,
+      [&server](const locd_msg_ServingClaim& m) {
+        server.on_claim(dds::to_string(m.robot_id), dds::to_string(m.server_id), true, m.since_ns);
+      },
+      8, {}, nullptr,
+      [&server](const locd_msg_ServingClaim& key, dds::InstanceGone) {
+        server.on_claim(dds::to_string(key.robot_id), dds::to_string(key.server_id), false);
+      });
+  readers->resume_states = dds::Reader<locd_msg_ResumeState>(
+      participant_, topics::kResumeState, dds::QosProfile::kState, [&server](const locd_msg_ResumeState& m) {
+        ResumeState state;
+        state.server = dds::to_string(m.server_id);
+        state.plugin = dds::to_string(m.plugin);
+        state.request_id = m.request_id;
+        state.failed = m.failed;
+        state.estimate.header = {m.header.stamp_ns, "map"};
+        state.estimate.pose = dds::from_wire(m.pose);
+        for (int i = 0; i < 36; ++i) state.estimate.covariance(i / 6, i % 6) = m.covariance[i];
+        if (m.has_map_from_odom) state.map_from_odom = dds::from_wire(m.map_from_odom);
+        const std::string robot_id = dds::to_string(m.robot_id);
+        if (!robot_id_error(robot_id).empty()) return;
+        try {
+          validate(state.estimate);  // another server is trusted no more than the network
+        } catch (const std::exception&) {
+          return;
+        }
+        server.on_peer_resume_state(robot_id, state.server, state);
+      });
   readers_ = std::move(readers);
 }
 
@@ -264,6 +311,18 @@ void DdsBridge::publish_status(const SessionStatusReport& s) {
   wire->failures = s.failures;
   wire->localization = wire_localization(s.localization.state);
   copy_truncated(wire->localization_reason, s.localization.reason);
+  wire->lost = s.counters.lost;
+  std::array<locd_msg_StreamCount, 6> lost{};
+  uint32_t streams = 0;
+  for (size_t kind = 0; kind < s.counters.lost_by_kind.size(); ++kind) {
+    if (s.counters.lost_by_kind[kind] == 0) continue;
+    copy_truncated(lost[streams].topic, topic_of(static_cast<MeasurementKind>(1u << kind)));
+    lost[streams].count = s.counters.lost_by_kind[kind];
+    ++streams;
+  }
+  wire->lost_by_stream._length = wire->lost_by_stream._maximum = streams;
+  wire->lost_by_stream._buffer = lost.data();
+  wire->lost_by_stream._release = false;
   writers_for(s.robot_id)->status.write(*wire);
 }
 
@@ -290,11 +349,45 @@ void DdsBridge::publish_outputs(const std::string& robot_id, const std::string& 
   }
 }
 
+void DdsBridge::publish_claim(const std::string& robot_id, bool serving) {
+  locd_msg_ServingClaim claim;
+  std::memset(&claim, 0, sizeof claim);
+  copy_truncated(claim.robot_id, robot_id);
+  copy_truncated(claim.server_id, server_id_);
+  claim.since_ns = wall_clock_ns();
+  std::lock_guard<std::mutex> lock(fleet_mutex_);
+  if (serving) {
+    claims_.write(claim);
+  } else {
+    dds::check(dds_dispose(claims_.handle(), &claim), "withdraw a claim");
+  }
+}
+
+void DdsBridge::publish_resume_state(const std::string& robot_id, const ResumeState& state) {
+  locd_msg_ResumeState wire;
+  std::memset(&wire, 0, sizeof wire);
+  copy_truncated(wire.robot_id, robot_id);
+  copy_truncated(wire.server_id, server_id_);
+  wire.header.stamp_ns = state.estimate.header.stamp_ns;
+  copy_truncated(wire.header.frame_id, "map");
+  dds::to_wire(state.estimate.pose, wire.pose);
+  for (int i = 0; i < 36; ++i) wire.covariance[i] = state.estimate.covariance(i / 6, i % 6);
+  wire.has_map_from_odom = state.map_from_odom.has_value();
+  if (state.map_from_odom) dds::to_wire(*state.map_from_odom, wire.map_from_odom);
+  copy_truncated(wire.plugin, state.plugin);
+  wire.request_id = state.request_id;
+  wire.failed = state.failed;
+  std::lock_guard<std::mutex> lock(fleet_mutex_);
+  resume_states_.write(wire);
+}
+
 void DdsBridge::publish_server_info(const ServerInfoReport& info) {
   locd_msg_ServerInfo wire;
   std::memset(&wire, 0, sizeof wire);
   copy_truncated(wire.server_id, info.server_id);
   wire.started_ns = info.started_ns;
+  wire.weight = info.weight;
+  copy_truncated(wire.server_group, info.server_group);
 
   constexpr size_t kMaxPlugins = 256, kMaxRejected = 64, kMaxKinds = 16;
   std::vector<locd_msg_PluginInfo> plugins(std::min(info.plugins.size(), kMaxPlugins));

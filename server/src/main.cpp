@@ -60,6 +60,8 @@ constexpr size_t kUnservedRobotsWithWriters = 256;
 // At shutdown, how long plugin workers get to exit before they are killed (a hung plugin never
 // exits): SIGTERM completes well within 2 s.
 constexpr std::chrono::milliseconds kWorkerExitGrace{500};
+// How often the server applies the fleet's rules (fleet.hpp).
+constexpr std::chrono::milliseconds kFleetTick{50};
 
 int signal_pipe[2] = {-1, -1};
 
@@ -223,20 +225,25 @@ int run(const Options& o) {
                "locd " + config.server_id + " running on domain " + std::to_string(config.domain_id) + " with " +
                    std::to_string(config.workers) + " workers, " + std::to_string(catalog.names().size()) + " plugins");
 
-    const int period_ms = static_cast<int>(std::lround(config.status_period_s * 1000.0));
+    // The loop wakes every kFleetTick to apply the fleet's rules (a dead server's robots are
+    // taken over within its lease plus this), and publishes statuses once per status period.
+    const auto status_period = std::chrono::duration<double>(config.status_period_s);
+    auto next_status = std::chrono::steady_clock::now() + status_period;
     for (;;) {
       pollfd fd{signal_pipe[0], POLLIN, 0};
-      const int ready = poll(&fd, 1, period_ms);
+      const int ready = poll(&fd, 1, static_cast<int>(kFleetTick.count()));
       if (ready > 0) break;
       if (ready < 0 && errno != EINTR) {
         logger.log(LogLevel::kError, "server", std::string("poll: ") + std::strerror(errno));
         break;
       }
-      if (ready == 0) {
+      server.rebalance();
+      if (std::chrono::steady_clock::now() >= next_status) {
+        next_status += std::chrono::duration_cast<std::chrono::steady_clock::duration>(status_period);
         server.publish_all_status();
         server.save_state();
+        server.end_ownerless_sessions();
       }
-      server.end_ownerless_sessions();
     }
     logger.log(LogLevel::kInfo, "server", "shutting down: stopping readers, then workers");
     bridge.disconnect();

@@ -1,5 +1,6 @@
 #include "locd/server/server.hpp"
 
+#include <algorithm>
 #include <chrono>
 
 #include "locd/dds/topics.hpp"
@@ -10,6 +11,12 @@ namespace {
 
 constexpr auto kNoSessionReportPeriod = std::chrono::seconds(1);
 constexpr size_t kMaxUnservedRobots = 4096;  // bounds the memory a flood of robot ids can take
+// Latest requests and other servers' resume states kept, whoever serves the robots.
+constexpr size_t kMaxRequestsKept = 200000;
+// Without news from the fleet, the rules are applied again this often.
+constexpr auto kRebalanceEvery = std::chrono::seconds(1);
+// A robot another server served is taken over only if heard from this recently.
+constexpr auto kTakeoverHeardWithin = std::chrono::seconds(2);
 
 }  // namespace
 
@@ -34,7 +41,8 @@ Server::Server(ServerConfig config, const PluginCatalog& catalog, OutputSink& si
       pool_(static_cast<size_t>(config_.workers)), workers_(config_.plugin_workers, config_.limits, logger_),
       environment_{workers_, pool_, sink_, static_cast<size_t>(config_.queue_depth), config_.failures,
                    configure_template(config_), nullptr},
-      state_file_(config_.state_directory), started_ns_(wall_clock_ns()), started_(std::chrono::steady_clock::now()) {
+      state_file_(config_.state_directory), started_ns_(wall_clock_ns()), started_(std::chrono::steady_clock::now()),
+      fleet_(ServerMember{config_.server_id, config_.weight, config_.server_group}) {
   pool_.on_task_error([this](const std::string& what) { logger_.log(LogLevel::kError, "server", "task failed: " + what); });
   environment_.forget = [this](const std::shared_ptr<Session>& session) {
     bool forgotten = false;
@@ -42,10 +50,11 @@ Server::Server(ServerConfig config, const PluginCatalog& catalog, OutputSink& si
       std::lock_guard<std::mutex> lock(mutex_);
       auto it = sessions_.find(session->robot_id());
       if (it != sessions_.end() && it->second == session) {
-        sessions_.erase(it);
+        forget_locked(it);
         forgotten = true;
       }
     }
+    publish_claims();
     if (forgotten && observer_) observer_->session_ended(session->robot_id());
   };
   saved_ = state_file_.load(logger_);
@@ -73,7 +82,6 @@ void Server::shutdown(std::chrono::milliseconds grace) {
 }
 
 void Server::save_state() {
-  if (!state_file_.enabled()) return;
   std::map<std::string, ResumeState> states;
   std::vector<std::shared_ptr<Session>> sessions;
   {
@@ -82,8 +90,22 @@ void Server::save_state() {
     for (const auto& [_, session] : sessions_) sessions.push_back(session);
   }
   for (const auto& session : sessions) {
-    if (auto state = session->resume_state()) states[session->robot_id()] = std::move(*state);
+    auto state = session->resume_state();
+    if (!state) continue;
+    state->server = config_.server_id;
+    // To the other servers, when it changed: where the robot resumes should this server die.
+    auto& shared = shared_[session->robot_id()];
+    if (shared != std::make_pair(state->estimate.header.stamp_ns, state->failed)) {
+      shared = {state->estimate.header.stamp_ns, state->failed};
+      try {
+        sink_.publish_resume_state(session->robot_id(), *state);
+      } catch (const std::exception& e) {
+        logger_.log(LogLevel::kError, session->robot_id(), std::string("resume state not shared: ") + e.what());
+      }
+    }
+    states[session->robot_id()] = std::move(*state);
   }
+  if (!state_file_.enabled()) return;
   const std::string text = StateFile::encode(states);
   if (text == last_saved_) return;
   try {
@@ -98,6 +120,8 @@ ServerInfoReport Server::info() const {
   ServerInfoReport info;
   info.server_id = config_.server_id;
   info.started_ns = started_ns_;
+  info.weight = config_.weight;
+  info.server_group = config_.server_group;
   for (const auto& name : catalog_.names()) {
     const auto library = catalog_.find(name);
     const auto& d = library->descriptor();
@@ -122,6 +146,7 @@ void Server::boot() {
       session = create_session_locked(boot.robot_id);
       generation = session->begin_request(0);
     }
+    publish_claims();
     if (boot.initial_pose) {
       PoseEstimate pose;
       pose.header = {wall_clock_ns(), "map"};
@@ -142,12 +167,30 @@ std::shared_ptr<Session> Server::create_session_locked(const std::string& robot_
       logger->log(level, robot_id, message);
     });
     unserved_.erase(robot_id);
-    if (auto saved = saved_.find(robot_id); saved != saved_.end()) {
+    // Where it resumes: this server's last run, or the server that served it before (whichever
+    // saw the robot last).
+    auto saved = saved_.find(robot_id);
+    auto peer = peer_states_.find(robot_id);
+    if (saved != saved_.end() && (peer == peer_states_.end() ||
+                                  saved->second.estimate.header.stamp_ns >= peer->second.estimate.header.stamp_ns)) {
       slot->seed(saved->second);
-      saved_.erase(saved);
+    } else if (peer != peer_states_.end()) {
+      slot->seed(peer->second);
+      logger_.log(LogLevel::kInfo, robot_id, "taken over: resumes where server '" + peer->second.server + "' left it");
     }
+    if (saved != saved_.end()) saved_.erase(saved);
+    fleet_.claim(robot_id, config_.server_id, true, wall_clock_ns());
+    claims_to_publish_.emplace_back(robot_id, true);
   }
   return slot;
+}
+
+void Server::forget_locked(std::map<std::string, std::shared_ptr<Session>>::iterator it) {
+  const std::string robot_id = it->first;
+  sessions_.erase(it);
+  fleet_.claim(robot_id, config_.server_id, false);
+  claims_to_publish_.emplace_back(robot_id, false);
+  shared_.erase(robot_id);
 }
 
 std::shared_ptr<Session> Server::find(const std::string& robot_id) const {
@@ -166,55 +209,214 @@ void Server::on_session_request(SessionRequestMessage request) {
     on_invalid_robot_id(topics::kSessionRequest, "session request " + std::to_string(request.request_id) + ": " + error);
     return;
   }
+  const std::string robot_id = request.robot_id;
   if (request.stop) {
     std::shared_ptr<Session> session;
+    bool answer = false;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      auto it = sessions_.find(request.robot_id);
+      requests_.erase(robot_id);
+      auto it = sessions_.find(robot_id);
       if (it != sessions_.end()) {
         session = it->second;
-        sessions_.erase(it);
+        forget_locked(it);
+      } else {
+        answer = fleet_.answers_for(robot_id, "");
       }
     }
+    publish_claims();
     if (session) {
       session->stop(request.request_id, "stopped by request " + std::to_string(request.request_id));
-      if (observer_) observer_->session_ended(request.robot_id);
-    } else {
+      if (observer_) observer_->session_ended(robot_id);
+    } else if (answer) {
       SessionStatusReport status;
-      status.robot_id = request.robot_id;
+      status.robot_id = robot_id;
       status.stamp_ns = wall_clock_ns();
       status.state = SessionState::kNoSession;
       status.request_id = request.request_id;
       status.request_ok = false;
-      status.message = "no session to stop for robot '" + request.robot_id + "'";
+      status.message = "no session to stop for robot '" + robot_id + "'";
       pool_.post([this, status] { sink_.publish_status(status); });
     }
     return;
   }
-  std::shared_ptr<Session> session;
-  uint64_t generation = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (!sessions_.count(request.robot_id) && sessions_.size() >= config_.max_sessions) {
-      SessionStatusReport status;
-      status.robot_id = request.robot_id;
-      status.stamp_ns = wall_clock_ns();
-      status.state = SessionState::kNoSession;
-      status.request_id = request.request_id;
-      status.request_ok = false;
-      status.message = "server '" + config_.server_id + "' already runs max_sessions = " +
-                       std::to_string(config_.max_sessions) +
-                       " sessions; stop one or raise max_sessions in the server config";
-      logger_.log(LogLevel::kWarning, request.robot_id, status.message);
-      pool_.post([this, status] { sink_.publish_status(status); });
-      return;
+    if (!requests_.count(robot_id) && requests_.size() >= kMaxRequestsKept) {
+      // Bounded: a flood of robot ids forgets the requests of robots served nowhere here first.
+      for (auto it = requests_.begin(); it != requests_.end(); ++it) {
+        if (!sessions_.count(it->first)) {
+          requests_.erase(it);
+          break;
+        }
+      }
     }
-    session = create_session_locked(request.robot_id);
-    generation = session->begin_request(request.request_id);
+    StoredRequest& stored = requests_[robot_id];
+    stored.request = std::move(request);
+    stored.handled = false;  // every request delivered is acted on (a robot may send the same one again)
+    stored.group.clear();
+    try {
+      stored.group = split_plugin_config(stored.request.config_yaml, "session request").server_group;
+    } catch (const std::exception&) {
+      // Refused where it is handled (the server that answers for the robot names the error).
+    }
   }
-  logger_.log(LogLevel::kInfo, request.robot_id, "session request " + std::to_string(request.request_id) +
-                                                     (request.plugin.empty() ? "" : " for plugin " + request.plugin));
-  pool_.post([this, session, generation, request = std::move(request)] { handle_start(session, generation, request); });
+  pool_.post([this, robot_id] { reconsider(robot_id); });
+}
+
+void Server::publish_claims() {
+  // Serialised, in the order they were made; outside mutex_: a claim written reaches this
+  // server's own claim reader on this thread, which takes mutex_.
+  std::lock_guard<std::mutex> order(claims_mutex_);
+  std::vector<std::pair<std::string, bool>> claims;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    claims.swap(claims_to_publish_);
+  }
+  for (const auto& [robot_id, serving] : claims) {
+    try {
+      sink_.publish_claim(robot_id, serving);
+    } catch (const std::exception& e) {
+      logger_.log(LogLevel::kError, robot_id, std::string("claim not published: ") + e.what());
+    }
+  }
+}
+
+bool Server::answers_for(const std::string& robot_id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = requests_.find(robot_id);
+  return fleet_.answers_for(robot_id, it == requests_.end() ? "" : it->second.group);
+}
+
+void Server::reconsider(const std::string& robot_id) {
+  std::shared_ptr<Session> session, yielded;
+  SessionRequestMessage request;
+  uint64_t generation = 0;
+  std::string handed_to;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto stored = requests_.find(robot_id);
+    if (stored == requests_.end()) return;
+    auto current = sessions_.find(robot_id);
+    const bool serving = current != sessions_.end();
+    const FleetView::Decision decision = fleet_.decide(robot_id, stored->second.group, serving);
+    if (serving && decision == FleetView::Decision::kYield) {
+      for (const auto& id : fleet_.claimants(robot_id)) {
+        if (id != config_.server_id) handed_to = id;
+      }
+      yielded = current->second;
+      forget_locked(current);
+      stored->second.handled = false;  // should it come back here (its server died), it starts again
+    } else if (!serving && decision != FleetView::Decision::kServe) {
+      return;
+    } else if (stored->second.handled && stored->second.handled_request_id == stored->second.request.request_id) {
+      return;  // handled here already (served, refused, or failed): nothing new
+    } else {
+      if (!serving && served_elsewhere_.count(robot_id)) {
+        // A takeover: only of a robot this server hears now (a server cut off from the network
+        // takes nothing, and hands nothing back when it returns).
+        const auto heard = last_heard_.find(robot_id);
+        if (heard == last_heard_.end() || std::chrono::steady_clock::now() - heard->second > kTakeoverHeardWithin) {
+          fleet_changed_ = true;  // look again at the next tick
+          return;
+        }
+      }
+      request = stored->second.request;
+      if (!serving && sessions_.size() >= config_.max_sessions) {
+        SessionStatusReport status;
+        status.robot_id = robot_id;
+        status.stamp_ns = wall_clock_ns();
+        status.state = SessionState::kNoSession;
+        status.request_id = request.request_id;
+        status.request_ok = false;
+        status.message = "server '" + config_.server_id + "' already runs max_sessions = " +
+                         std::to_string(config_.max_sessions) +
+                         " sessions; stop one or raise max_sessions in the server config";
+        logger_.log(LogLevel::kWarning, robot_id, status.message);
+        stored->second.handled = true;
+        stored->second.handled_request_id = request.request_id;
+        pool_.post([this, status] { sink_.publish_status(status); });
+        return;
+      }
+      stored->second.handled = true;
+      stored->second.handled_request_id = request.request_id;
+      session = create_session_locked(robot_id);
+      generation = session->begin_request(request.request_id);
+    }
+  }
+  publish_claims();
+  if (yielded) {
+    yielded->stop(0, "handed over: server '" + handed_to + "' serves robot '" + robot_id +
+                         "' too, since later (it took the robot over while this server was out of reach)");
+    if (observer_) observer_->session_ended(robot_id);
+    return;
+  }
+  logger_.log(LogLevel::kInfo, robot_id, "session request " + std::to_string(request.request_id) +
+                                             (request.plugin.empty() ? "" : " for plugin " + request.plugin));
+  handle_start(session, generation, request);
+}
+
+void Server::on_server_alive(const ServerMember& member) {
+  bool joined = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (member.id == config_.server_id) return;
+    const auto alive = fleet_.alive();
+    joined = std::none_of(alive.begin(), alive.end(), [&](const ServerMember& m) { return m.id == member.id; });
+    fleet_.server_alive(member);
+    fleet_changed_ = true;
+  }
+  if (joined) {
+    logger_.log(LogLevel::kInfo, "server", "server '" + member.id + "' joined the fleet (weight " +
+                                               std::to_string(member.weight) +
+                                               (member.group.empty() ? "" : ", group " + member.group) + ")");
+  }
+}
+
+void Server::on_server_gone(const std::string& server_id) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (server_id == config_.server_id) return;
+    fleet_.server_gone(server_id);
+    fleet_changed_ = true;
+  }
+  logger_.log(LogLevel::kInfo, "server", "server '" + server_id + "' is gone; its robots go to the servers left");
+}
+
+void Server::on_claim(const std::string& robot_id, const std::string& server_id, bool serving, int64_t since_ns) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (server_id == config_.server_id) return;
+  if (serving && served_elsewhere_.size() < kMaxRequestsKept) served_elsewhere_.insert(robot_id);
+  fleet_.claim(robot_id, server_id, serving, since_ns);
+  fleet_changed_ = true;
+}
+
+void Server::on_peer_resume_state(const std::string& robot_id, const std::string& server_id, const ResumeState& state) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (server_id == config_.server_id) return;
+  auto it = peer_states_.find(robot_id);
+  if (it != peer_states_.end() && it->second.estimate.header.stamp_ns > state.estimate.header.stamp_ns) return;
+  if (it == peer_states_.end() && peer_states_.size() >= kMaxRequestsKept) return;
+  peer_states_[robot_id] = state;
+}
+
+void Server::rebalance() {
+  std::vector<std::string> robots;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto now = std::chrono::steady_clock::now();
+    if (!fleet_changed_ && now - last_rebalance_ < kRebalanceEvery) return;
+    fleet_changed_ = false;
+    last_rebalance_ = now;
+    for (const auto& [robot_id, stored] : requests_) {
+      const bool serving = sessions_.count(robot_id) > 0;
+      const FleetView::Decision d = fleet_.decide(robot_id, stored.group, serving);
+      if ((serving && d == FleetView::Decision::kYield) || (!serving && d == FleetView::Decision::kServe)) {
+        robots.push_back(robot_id);
+      }
+    }
+  }
+  for (const auto& robot_id : robots) pool_.post([this, robot_id] { reconsider(robot_id); });
 }
 
 void Server::handle_start(const std::shared_ptr<Session>& session, uint64_t generation,
@@ -268,8 +470,9 @@ void Server::abandon_if_failed(const std::shared_ptr<Session>& session, uint64_t
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = sessions_.find(session->robot_id());
     if (it == sessions_.end() || it->second != session || !session->abandon_if_idle(generation)) return;
-    sessions_.erase(it);
+    forget_locked(it);
   }
+  publish_claims();
   if (observer_) observer_->session_ended(session->robot_id());
 }
 
@@ -333,6 +536,12 @@ void Server::report_no_session(const std::string& robot_id, const std::string& t
   SessionStatusReport status;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    if (served_elsewhere_.count(robot_id)) last_heard_[robot_id] = std::chrono::steady_clock::now();
+    const auto stored = requests_.find(robot_id);
+    if (!fleet_.answers_for(robot_id, stored == requests_.end() ? "" : stored->second.group)) {
+      ++messages_served_elsewhere_;  // another server serves the robot (or will): not ours to answer
+      return;
+    }
     ++messages_without_session_;
     if (unserved_.size() >= kMaxUnservedRobots && !unserved_.count(robot_id)) unserved_.clear();
     auto& unserved = unserved_[robot_id];

@@ -155,7 +155,7 @@ ServerConfig ServerConfig::parse(const std::string& yaml_text, const std::string
   const Params root = Params::parse(yaml_text, source_name);
   root.expect_only({"server_id", "domain_id", "plugin_directories", "map_directories", "output_directory", "workers",
                     "queue_depth", "max_sessions", "status_period_s", "session_grace_s", "limits", "log_level",
-                    "sessions", "plugin_workers", "state_directory"});
+                    "sessions", "plugin_workers", "state_directory", "weight", "server_group"});
   ServerConfig c;
   c.server_id = root.text("server_id", default_server_id());
   if (c.server_id.empty() || c.server_id.size() > 64) {
@@ -184,6 +184,9 @@ ServerConfig ServerConfig::parse(const std::string& yaml_text, const std::string
     c.state_directory = fs::canonical(dir, ec);
   }
   parse_plugin_workers(root.child("plugin_workers"), base_directory, c);
+  c.weight = root.number("weight", 1.0, Range::closed(0.001, 1000.0));
+  c.server_group = root.text("server_group", "");
+  if (c.server_group.size() > 64) root.fail("server_group", "is longer than 64 characters");
 
   const Params limits = root.child("limits");
   limits.expect_only({"max_scan_beams", "max_cloud_points", "max_image_pixels", "max_detections",

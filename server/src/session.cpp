@@ -101,12 +101,23 @@ void Session::log_rejection(const std::string& error) {
 bool Session::push(Measurement measurement) {
   const size_t kind_index = measurement.index();
   const int64_t stamp = header_of(measurement).stamp_ns;
+  const uint64_t sequence = header_of(measurement).sequence;
   std::string error;
   const char* dropped = nullptr;  // topic of the message dropped from a full queue
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (stopped_) return false;
     ++counters_.received;
+    // Loss in transit: a gap in the stream's numbers. A number not above the last one is a new
+    // writer (the robot restarted) and starts the count again.
+    if (sequence != 0) {
+      uint64_t& last_sequence = last_sequence_[kind_index];
+      if (last_sequence != 0 && sequence > last_sequence + 1) {
+        counters_.lost += sequence - last_sequence - 1;
+        counters_.lost_by_kind[kind_index] += sequence - last_sequence - 1;
+      }
+      last_sequence = sequence;
+    }
     auto& last = last_stamp_[kind_index];
     if (last && stamp < *last) {
       ++counters_.rejected;
@@ -254,20 +265,7 @@ void Session::configure_on_worker(Pending pending) {
       if (pending.restart) {
         register_failure_locked(error, out);
       } else {
-        const bool running = plugin_alive_locked();
-        request_id_ = pending.plugin.request_id;
-        request_ok_ = false;
-        message_ = last_error_ = error;
-        if (!running) {
-          state_ = SessionState::kError;
-          stopped_ = true;
-          counters_.dropped += queue_.size();
-          queue_.clear();
-          out.forget = true;
-        }
-        out.status = true;
-        out.log.emplace_back(LogLevel::kWarning, "request " + std::to_string(pending.plugin.request_id) +
-                                                     " failed: " + error);
+        fail_pending_locked(pending.plugin.request_id, error, out);
       }
     } else {
       if (pending_) out.release.push_back(pending_->plugin.instance);  // an older one still configuring
@@ -493,21 +491,7 @@ void Session::handle_configured_locked(Pending pending, worker::Reply& reply, Pu
       register_failure_locked("plugin '" + plugin + "' could not be restarted: " + reply.message, out);
       return;
     }
-    const bool running = plugin_alive_locked();
-    request_id_ = pending.plugin.request_id;
-    request_ok_ = false;
-    message_ = last_error_ = reply.message;
-    if (!running) {
-      state_ = SessionState::kError;
-      stopped_ = true;
-      counters_.dropped += queue_.size();
-      queue_.clear();
-      out.forget = true;
-    }
-    out.log.emplace_back(LogLevel::kWarning, "request " + std::to_string(pending.plugin.request_id) + " failed" +
-                                                 (running ? " (the running plugin carries on): " : ": ") +
-                                                 reply.message);
-    out.status = true;
+    fail_pending_locked(pending.plugin.request_id, reply.message, out);
     return;
   }
   const std::string previous = current_ ? current_->name : "";
@@ -649,20 +633,7 @@ void Session::on_lost(uint64_t instance, const WorkerLoss& loss) {
       } else if (pending.restart) {
         register_failure_locked(loss.description, out);
       } else {
-        const bool running = plugin_alive_locked();
-        request_id_ = pending.plugin.request_id;
-        request_ok_ = false;
-        message_ = last_error_ = loss.description;
-        if (!running) {
-          state_ = SessionState::kError;
-          stopped_ = true;
-          counters_.dropped += queue_.size();
-          queue_.clear();
-          out.forget = true;
-        }
-        out.log.emplace_back(LogLevel::kError, "request " + std::to_string(pending.plugin.request_id) +
-                                                   " failed: " + loss.description);
-        out.status = true;
+        fail_pending_locked(pending.plugin.request_id, loss.description, out);
       }
     }
     if (release_after_reply_ == instance) release_after_reply_.reset();
@@ -697,6 +668,25 @@ void Session::on_lost(uint64_t instance, const WorkerLoss& loss) {
     pump_locked();
   }
   finish(out);
+}
+
+void Session::fail_pending_locked(uint64_t request_id, const std::string& error, Publication& out) {
+  // The running plugin (if any) carries on; a session left without one ends (its router forgets
+  // it) and what it had queued is counted as dropped.
+  const bool running = plugin_alive_locked();
+  request_id_ = request_id;
+  request_ok_ = false;
+  message_ = last_error_ = error;
+  if (!running) {
+    state_ = SessionState::kError;
+    stopped_ = true;
+    counters_.dropped += queue_.size();
+    queue_.clear();
+    out.forget = true;
+  }
+  out.log.emplace_back(LogLevel::kWarning, "request " + std::to_string(request_id) + " failed" +
+                                               (running ? " (the running plugin carries on): " : ": ") + error);
+  out.status = true;
 }
 
 void Session::register_failure_locked(const std::string& description, Publication& out) {

@@ -42,13 +42,15 @@ void Server::end_ownerless_sessions() {
         it = ownerless_since_.erase(it);
       } else if (now - it->second >= grace) {
         ended.push_back(session->second);
-        sessions_.erase(session);
+        requests_.erase(session->first);  // the robot is gone: its request is not served again
+        forget_locked(session);
         it = ownerless_since_.erase(it);
       } else {
         ++it;
       }
     }
   }
+  publish_claims();
   for (const auto& session : ended) {
     std::ostringstream message;
     message << "session ended: no live writer of robot '" << session->robot_id()

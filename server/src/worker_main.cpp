@@ -11,6 +11,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -106,19 +107,28 @@ class Channel {
  public:
   explicit Channel(int fd) : fd_(fd) {}
 
-  // False when locd closed the channel.
+  // False when locd closed the channel. Reads ahead what the socket holds (usually the whole
+  // next frame, often several), so a frame costs one read.
   bool read_exact(char* into, size_t bytes) {
     size_t done = 0;
     while (done < bytes) {
-      const ssize_t n = ::read(fd_, into + done, bytes - done);
-      if (n > 0) {
-        done += static_cast<size_t>(n);
-      } else if (n == 0) {
-        if (done == 0) return false;
-        die(kExitChannelLost, "channel closed inside a frame");
-      } else if (errno != EINTR) {
-        die(kExitChannelLost, std::string("read: ") + std::strerror(errno));
+      if (begin_ == end_) {
+        const ssize_t n = ::read(fd_, buffer_, sizeof buffer_);
+        if (n > 0) {
+          begin_ = 0;
+          end_ = static_cast<size_t>(n);
+        } else if (n == 0) {
+          if (done == 0) return false;
+          die(kExitChannelLost, "channel closed inside a frame");
+        } else if (errno != EINTR) {
+          die(kExitChannelLost, std::string("read: ") + std::strerror(errno));
+        }
+        continue;
       }
+      const size_t take = std::min(bytes - done, end_ - begin_);
+      std::memcpy(into + done, buffer_ + begin_, take);
+      begin_ += take;
+      done += take;
     }
     return true;
   }
@@ -137,6 +147,8 @@ class Channel {
 
  private:
   int fd_;
+  char buffer_[64 * 1024];
+  size_t begin_ = 0, end_ = 0;
 };
 
 // Refuses outputs beyond the limits here, as an error of the update, before they are encoded: the

@@ -155,6 +155,12 @@ TEST(ClientLibrary, EverySensorTypeSurvivesTheWireExactly) {
   EXPECT_EQ(w_odo.linear_velocity.x, 0.9);
   EXPECT_EQ(w_odo.linear_velocity.y, -0.01);
   EXPECT_EQ(w_odo.angular_velocity.z, -0.3141592653589793);
+  EXPECT_EQ(w_odo.header.sequence_number, 1u);  // the client numbers each sensor stream from 1
+  client.publish(odo);
+  EXPECT_EQ(take_one(odometry).header.sequence_number, 2u);
+  odo.header.sequence = 77;  // numbered by the caller: left as it is
+  client.publish(odo);
+  EXPECT_EQ(take_one(odometry).header.sequence_number, 77u);
 
   Imu m_imu;
   m_imu.header = {42, "imu_link"};

@@ -60,7 +60,7 @@ TEST(LocctlSecurity, OperatorsSteerEveryRobotMonitorsOnlyReadServersServe) {
   EXPECT_EQ(server[0].rfind("subscribe locd/odometry", 0), 0u) << server[0];
   EXPECT_NE(server[0].find("|robot.*"), std::string::npos);
   EXPECT_EQ(server[1].rfind("publish locd/pose", 0), 0u) << server[1];
-  EXPECT_EQ(server[2], "publish locd/server_info|");
+  EXPECT_EQ(server[2], "publish locd/server_info locd/serving locd/resume_state|");
 }
 
 TEST(LocctlSecurity, GovernanceEncryptsAndAccessControlsEverything) {

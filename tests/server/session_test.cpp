@@ -182,6 +182,31 @@ TEST_F(SessionTest, StampGoingBackwardsOnAKindIsRejectedAndNamed) {
   EXPECT_EQ(status.last_error, "stamp going backwards on locd/scan: 1200 < 1300 ns");
 }
 
+TEST_F(SessionTest, GapsInAStreamsNumbersAreCountedAsLostInTransit) {
+  auto session = make(16);
+  install(*session, kFixture, 1);
+  auto numbered = [](int64_t stamp, uint64_t sequence) {
+    Odometry o = odometry(stamp);
+    o.header.sequence = sequence;
+    return o;
+  };
+  session->push(numbered(100, 1));
+  session->push(numbered(200, 2));
+  session->push(numbered(300, 5));  // 3 and 4 never arrived
+  LaserScan s = scan(310);
+  s.header.sequence = 7;  // another stream: its own numbers (the first one seen counts nothing)
+  session->push(s);
+  session->push(numbered(400, 1));  // a new writer (the robot restarted): counted from here
+  session->push(numbered(500, 3));
+  session->push(odometry(600));     // not numbered: not counted
+  ASSERT_TRUE(wait_counted(*session, 7));
+  const auto c = session->status().counters;
+  EXPECT_EQ(c.lost, 3u);
+  EXPECT_EQ(c.lost_by_kind[0], 3u);  // odometry
+  EXPECT_EQ(c.lost_by_kind[2], 0u);  // scan
+  EXPECT_EQ(c.received, 7u);
+}
+
 TEST_F(SessionTest, PluginInputErrorIsRejectedAndTheSessionGoesOn) {
   auto session = make(16);
   install(*session, kFixture, 1);

@@ -2,6 +2,8 @@
 #include "locd/client/wire.hpp"
 
 #include <algorithm>
+#include <array>
+#include <atomic>
 #include <condition_variable>
 #include <cmath>
 #include <cstring>
@@ -121,6 +123,10 @@ SessionStatus status_from_wire(const locd_msg_SessionStatus& m) {
   s.last_update_ms = m.last_update_ms;
   s.initial_pose_stamp_ns = m.initial_pose_stamp_ns;
   s.failures = m.failures;
+  s.lost = m.lost;
+  for (uint32_t i = 0; i < m.lost_by_stream._length; ++i) {
+    s.lost_by_stream.emplace_back(dds::to_string(m.lost_by_stream._buffer[i].topic), m.lost_by_stream._buffer[i].count);
+  }
   s.localization = localization_name(m.localization);
   s.localization_reason = dds::to_string(m.localization_reason);
   s.stamp_ns = m.header.stamp_ns;
@@ -158,6 +164,16 @@ dds::Partitions watched_partitions(const ClientOptions& o) {
 // The partition a client publishes in: its robot's (a pure watcher publishes nothing).
 dds::Partitions own_partition(const ClientOptions& o) {
   return o.robot_id.empty() ? dds::Partitions{} : dds::Partitions{topics::robot_partition(o.robot_id)};
+}
+
+// The position of T among the alternatives of the variant V.
+template <typename T, typename V, size_t I = 0>
+constexpr size_t variant_index() {
+  if constexpr (std::is_same_v<std::variant_alternative_t<I, V>, T>) {
+    return I;
+  } else {
+    return variant_index<T, V, I + 1>();
+  }
 }
 
 struct Client::Impl {
@@ -204,6 +220,19 @@ struct Client::Impl {
   dds::Writer<T> writer(const char* topic, dds::QosProfile profile, int depth) const {
     return dds::Writer<T>::where_permitted(participant, topic, profile, depth, own_partition(options));
   }
+
+  // Writes a sensor message numbered 1, 2, 3, ... per topic (unless the caller numbered it), so
+  // the server counts what is lost in transit.
+  template <typename Wire, typename Message>
+  void write_numbered(const dds::Writer<Wire>& writer, const Message& m) {
+    std::atomic<uint64_t>& counter = sequences[variant_index<Message, Measurement>()];
+    dds::to_wire(options.robot_id, m, [&](const Wire& wire) {
+      Wire numbered = wire;  // shallow: the sequences stay borrowed from `m`
+      if (numbered.header.sequence_number == 0) numbered.header.sequence_number = ++counter;
+      writer.write(numbered);
+    });
+  }
+  std::array<std::atomic<uint64_t>, std::variant_size_v<Measurement>> sequences{};
 
   void note_written(dds_entity_t writer) {
     if (writer <= 0) return;  // absent (refused by DDS Security): its write throws
@@ -386,22 +415,22 @@ const std::string& Client::robot_id() const { return impl_->options.robot_id; }
 void Client::publish(const Odometry& m) {
   impl_->require_robot("publish(Odometry)");
   impl_->note_written(impl_->odometry.handle());
-  dds::write(impl_->odometry, impl_->options.robot_id, m);
+  impl_->write_numbered(impl_->odometry, m);
 }
 void Client::publish(const Imu& m) {
   impl_->require_robot("publish(Imu)");
   impl_->note_written(impl_->imu.handle());
-  dds::write(impl_->imu, impl_->options.robot_id, m);
+  impl_->write_numbered(impl_->imu, m);
 }
 void Client::publish(const LaserScan& m) {
   impl_->require_robot("publish(LaserScan)");
   impl_->note_written(impl_->scan.handle());
-  dds::write(impl_->scan, impl_->options.robot_id, m);
+  impl_->write_numbered(impl_->scan, m);
 }
 void Client::publish(const PointCloud& m) {
   impl_->require_robot("publish(PointCloud)");
   impl_->note_written(impl_->cloud.handle());
-  dds::write(impl_->cloud, impl_->options.robot_id, m);
+  impl_->write_numbered(impl_->cloud, m);
 }
 void Client::publish(const Image& m) {
   impl_->require_robot("publish(Image)");
@@ -414,12 +443,12 @@ void Client::publish(const Image& m) {
                                 std::to_string(static_cast<long long>(m.width) * m.height * m.channels));
   }
   impl_->note_written(impl_->image.handle());
-  dds::write(impl_->image, impl_->options.robot_id, m);
+  impl_->write_numbered(impl_->image, m);
 }
 void Client::publish(const LandmarkDetections& m) {
   impl_->require_robot("publish(LandmarkDetections)");
   impl_->note_written(impl_->detections.handle());
-  dds::write(impl_->detections, impl_->options.robot_id, m);
+  impl_->write_numbered(impl_->detections, m);
 }
 void Client::publish_ground_truth(const PoseEstimate& truth) {
   impl_->require_robot("publish_ground_truth");

@@ -252,8 +252,8 @@ std::string permissions_xml(Role role, const std::string& name, const Validity& 
     case Role::kServer:  // reads every robot's inputs, writes every robot's outputs, announces itself
       rules = {{"subscribe", {join({sensors, requests}), every}},
                {"publish", {outputs, every}},
-               {"publish", {{kServerInfo}, ""}},
-               {"subscribe", {{kServerInfo}, ""}}};
+               {"publish", {{kServerInfo, kServingClaim, kResumeState}, ""}},
+               {"subscribe", {{kServerInfo, kServingClaim, kResumeState}, ""}}};
       break;
   }
   std::string xml = std::string(R"(<?xml version="1.0" encoding="UTF-8"?>

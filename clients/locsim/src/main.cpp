@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "locd/sdk/ros2_config.hpp"
+#include "fleet.hpp"
 #include "replay.hpp"
 #include "scenario_kinds.hpp"
 
@@ -45,6 +46,11 @@ const char* kUsage =
     "      a recording (locctl record, locsim run --mcap) fed again: into a running locd (default real time),\n"
     "      or --offline through the plugin its session request names (default as fast as possible);\n"
     "      compares the poses with the recorded ones. Maps: --map-dir, default config/maps\n"
+    "  locsim fleet SCENARIO.yaml --robots N [--domain N] [--rate X] [--duration S] [--seed N]\n"
+    "               [--distinct K] [--server-pid PID]... [--server-timeout S] [--json] [--plot FILE.png]\n"
+    "      N simulated robots (K distinct runs of a laser/odometry scenario, each robot its own id and\n"
+    "      clock) against running locd servers: poses per second, latency p50/p99/max, what the servers\n"
+    "      lost, dropped or rejected, and with --server-pid the servers' CPU and memory (workers included)\n"
     "  locsim --help\n"
     "Plugin directory for run: --plugin-dir, else $LOCD_PLUGIN_DIR, else <locsim's dir>/../plugins.\n";
 
@@ -140,10 +146,55 @@ ReplayOptions parse_replay(const std::vector<std::string>& args) {
   return o;
 }
 
+struct FleetCommand {
+  std::filesystem::path scenario_file;
+  locd::sim::FleetOptions options;
+};
+
+FleetCommand parse_fleet(const std::vector<std::string>& args) {
+  FleetCommand c;
+  std::string scenario, robots, domain, rate, duration, seed, distinct, server_timeout;
+  std::vector<std::string> server_pids;
+  CLI::App app{"locsim fleet", "locsim fleet"};
+  app.set_help_flag();
+  app.add_option("scenario", scenario, "SCENARIO.yaml");
+  app.add_flag("--json", c.options.json);
+  app.add_option("--plot", c.options.plot_file);
+  app.add_option("--robots", robots);
+  app.add_option("--domain", domain);
+  app.add_option("--rate", rate);
+  app.add_option("--duration", duration);
+  app.add_option("--seed", seed);
+  app.add_option("--distinct", distinct);
+  app.add_option("--server-timeout", server_timeout);
+  app.add_option("--server-pid", server_pids)->expected(1)->take_all();
+  std::vector<std::string> rest(args.rbegin(), args.rend() - 1);
+  try {
+    app.parse(rest);
+  } catch (const CLI::ParseError& e) {
+    throw UsageError(std::string(e.what()) + " (locsim fleet)");
+  }
+  if (scenario.empty()) throw UsageError("locsim fleet needs a SCENARIO.yaml");
+  if (robots.empty()) throw UsageError("locsim fleet needs --robots N");
+  c.scenario_file = scenario;
+  c.options.robots = parse_unsigned("--robots", robots, 100000);
+  if (c.options.robots == 0) throw UsageError("--robots 0: expected an integer in [1, 100000]");
+  if (!domain.empty()) c.options.domain_id = static_cast<uint32_t>(parse_unsigned("--domain", domain, 232));
+  if (!rate.empty()) c.options.rate = parse_number("--rate", rate, 0.01, 100.0);
+  if (!duration.empty()) c.options.duration_s = parse_number("--duration", duration, 1e-3, 86400.0);
+  if (!seed.empty()) c.options.seed = parse_unsigned("--seed", seed, std::numeric_limits<long>::max());
+  if (!distinct.empty()) c.options.distinct_runs = parse_unsigned("--distinct", distinct, 1000);
+  if (!server_timeout.empty()) c.options.server_timeout_s = parse_number("--server-timeout", server_timeout, 0.1, 3600.0);
+  for (const auto& pid : server_pids) {
+    c.options.server_pids.push_back(static_cast<pid_t>(parse_unsigned("--server-pid", pid, 1u << 30)));
+  }
+  return c;
+}
+
 Command parse(const std::vector<std::string>& args) {
   const std::string mode = args[0];
   if (mode != "run" && mode != "live" && mode != "montecarlo") {
-    throw UsageError("unknown command '" + mode + "'; known: run, live, montecarlo, replay");
+    throw UsageError("unknown command '" + mode + "'; known: run, live, montecarlo, replay, fleet");
   }
   Command c;
   c.mode = mode;
@@ -224,6 +275,10 @@ int main(int argc, char** argv) {
   }
   try {
     if (args[0] == "replay") return locd::sim::run_replay(parse_replay(args));
+    if (args[0] == "fleet") {
+      const FleetCommand fleet = parse_fleet(args);
+      return locd::sim::run_fleet(locd::sim::load_scenario(fleet.scenario_file), fleet.options);
+    }
     return locd::sim::run_command(parse(args));
   } catch (const UsageError& e) {
     std::cerr << "locsim: " << e.what() << "\n" << kUsage;

@@ -67,11 +67,16 @@ enum class QosProfile {
   kSensor,   // reliable, keep-last(depth), volatile
   kPose,     // reliable, keep-last 1 per robot, volatile
   kState,    // reliable, keep-last 1 per instance, transient-local: late joiners get it
+  kServerState,  // kState, with liveliness leased for kServerLease: a dead server's samples go with it
   // ROS 2's profiles (rclcpp's QoS presets; notes/dds.md), for the topics of ROS 2 robots:
   kRos2SensorData,  // best effort, keep-last(depth), volatile: a reader matches best-effort and reliable writers
   kRos2Default,     // reliable, keep-last(depth), volatile
   kRos2Latched,     // reliable, keep-last 1, transient-local (maps, amcl_pose)
 };
+
+// How long a server stays alive to the others without a sign of life (ServerInfo, claims): a
+// server killed or cut off is taken over within this, plus the time to start its robots.
+inline constexpr int64_t kServerLeaseMs = 400;
 
 struct QosDeleter { void operator()(dds_qos_t* q) const { dds_delete_qos(q); } };
 std::unique_ptr<dds_qos_t, QosDeleter> make_qos(QosProfile profile, int depth = 8);
@@ -96,6 +101,8 @@ LOCD_DDS_DESCRIPTOR(InitialPose)
 LOCD_DDS_DESCRIPTOR(ServerInfo)
 LOCD_DDS_DESCRIPTOR(ExplorationGoal)
 LOCD_DDS_DESCRIPTOR(MapSaveRequest)
+LOCD_DDS_DESCRIPTOR(ServingClaim)
+LOCD_DDS_DESCRIPTOR(ResumeState)
 #undef LOCD_DDS_DESCRIPTOR
 
 dds_entity_t create_topic(const Participant& p, const dds_topic_descriptor_t& d, const std::string& name);

@@ -38,6 +38,11 @@ inline constexpr const char* kInitialPose = "locd/initial_pose";        // trans
 inline constexpr const char* kServerInfo = "locd/server_info";          // transient-local
 inline constexpr const char* kMapSaveRequest = "locd/map_save_request";  // reliable, volatile
 
+// Between servers (default partition): which server serves which robot, and where a robot
+// resumes when another server takes it over. Written with a short liveliness lease.
+inline constexpr const char* kServingClaim = "locd/serving";       // transient-local
+inline constexpr const char* kResumeState = "locd/resume_state";   // transient-local, keep-last 1
+
 // Simulation ground truth, locsim -> evaluators (PoseEstimate).
 inline constexpr const char* kGroundTruth = "locd/ground_truth";
 

@@ -26,6 +26,9 @@ struct PluginConfig {
   std::string plugin;
   Params params;
   std::optional<Ros2Config> ros2;  // the `ros2:` section, when present
+  // `server_group: NAME`: only the servers of that group (their config's server_group) serve
+  // the robot; empty: any server.
+  std::string server_group;
 };
 
 // A plugin config as text, so that it can travel to the worker process that runs the plugin and

@@ -17,6 +17,7 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 struct Header {
   int64_t stamp_ns = 0;
   std::string frame_id;
+  uint64_t sequence = 0;  // sensors: 1, 2, 3, ... per writer and topic; 0 = not numbered
 };
 
 // base_link in the odom frame, body-frame velocities.

@@ -39,6 +39,8 @@ class DdsBridge : public OutputSink {
   void publish_outputs(const std::string& robot_id, const std::string& plugin, const Header& header,
                        const UpdateResult& result, double update_ms) override;
   void publish_server_info(const ServerInfoReport& info) override;
+  void publish_claim(const std::string& robot_id, bool serving) override;
+  void publish_resume_state(const std::string& robot_id, const ResumeState& state) override;
 
   // The bridge's participant, shared with the ROS 2 bridge (one participant per server).
   const dds::Participant& participant() const { return participant_; }
@@ -56,6 +58,9 @@ class DdsBridge : public OutputSink {
   size_t max_robots_;
   dds::Participant participant_;
   dds::Writer<locd_msg_ServerInfo> server_info_;
+  dds::Writer<locd_msg_ServingClaim> claims_;        // default partition, server to server
+  dds::Writer<locd_msg_ResumeState> resume_states_;  // likewise
+  std::mutex fleet_mutex_;                           // the two writers above
   std::mutex writers_mutex_;
   std::map<std::string, std::shared_ptr<RobotWriters>> robot_writers_;
   uint64_t use_counter_ = 0;

@@ -1,11 +1,13 @@
 // Where sessions and the server publish. The DDS bridge implements it for real; tests record.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
 
 #include "locd/sdk/types.hpp"
+#include "locd/server/resume.hpp"
 
 namespace locd::server {
 
@@ -21,6 +23,8 @@ struct SessionCounters {
                           // unprocessed when the session ended or its first plugin failed
   uint64_t rejected = 0;  // bad input: conversion, stamps going backwards, plugin InputError
   uint64_t updates = 0;   // estimates published
+  uint64_t lost = 0;      // lost in transit: gaps in the sequence numbers of a sensor stream
+  std::array<uint64_t, 6> lost_by_kind{};  // the same per measurement kind (variant index)
   double last_update_ms = 0.0;  // plugin compute time of the last update
 };
 
@@ -46,6 +50,8 @@ struct ServerInfoReport {
   };
   std::string server_id;
   int64_t started_ns = 0;
+  double weight = 1.0;       // rendezvous weight among the fleet's servers
+  std::string server_group;  // robots asking for this group are served by its servers only
   std::vector<Plugin> plugins;
   std::vector<std::string> rejected_plugins;
 };
@@ -58,6 +64,11 @@ class OutputSink {
   virtual void publish_outputs(const std::string& robot_id, const std::string& plugin, const Header& header,
                                const UpdateResult& result, double update_ms) = 0;
   virtual void publish_server_info(const ServerInfoReport& info) = 0;
+  // To the fleet's other servers (default: a lone server, nothing to tell). A claim is written
+  // while this server serves the robot and withdrawn when it stops; a resume state is where the
+  // robot would resume on another server.
+  virtual void publish_claim(const std::string& robot_id, bool serving) {}
+  virtual void publish_resume_state(const std::string& robot_id, const ResumeState& state) {}
 };
 
 int64_t wall_clock_ns();

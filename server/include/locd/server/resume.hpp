@@ -24,6 +24,7 @@ struct ResumeState {
   std::string plugin;
   uint64_t request_id = 0;  // the session request whose plugin produced it
   bool failed = false;      // that request's plugin failed max_failures times and was stopped
+  std::string server;       // the server whose session it comes from (another one's, on a takeover)
 };
 
 // The odometry pose at `stamp_ns`, extrapolated from `latest` (taken at or before it) with its

@@ -8,9 +8,11 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
 
 #include "locd/sdk/plugin_loader.hpp"
+#include "locd/server/fleet.hpp"
 #include "locd/server/log.hpp"
 #include "locd/server/output_sink.hpp"
 #include "locd/server/plugin_workers.hpp"
@@ -61,13 +63,25 @@ class Server {
   void on_robot_writers(const std::string& robot_id, bool alive);
   void end_ownerless_sessions();
 
+  // The fleet's other servers (from the bridge): alive or gone, what they serve, where their
+  // robots would resume. Decisions follow in rebalance().
+  void on_server_alive(const ServerMember& member);
+  void on_server_gone(const std::string& server_id);
+  void on_claim(const std::string& robot_id, const std::string& server_id, bool serving, int64_t since_ns = 0);
+  void on_peer_resume_state(const std::string& robot_id, const std::string& server_id, const ResumeState& state);
+  // Applies the fleet's rules (fleet.hpp) to every robot whose latest request asks for a
+  // session: starts the ones this server should take (from where they were), stops the ones it
+  // should hand back. Cheap when nothing changed; called from the server's loop.
+  void rebalance();
+
   void publish_all_status();
   ServerInfoReport info() const;
   std::shared_ptr<Session> find(const std::string& robot_id) const;
   uint64_t messages_without_session() const;
 
-  // Writes every session's resume state to the state directory (when it has one and anything
-  // changed since the last call); I/O errors are logged. Called once per status period.
+  // Shares every session's resume state with the other servers (those that changed), and writes
+  // them to the state directory (when it has one and anything changed since the last call); I/O
+  // errors are logged. Called once per status period.
   void save_state();
 
   // Stops accepting work, discards queued tasks, ends every worker process (killing those that
@@ -83,6 +97,15 @@ class Server {
   void handle_start(const std::shared_ptr<Session>& session, uint64_t generation, const SessionRequestMessage& request);
   void abandon_if_failed(const std::shared_ptr<Session>& session, uint64_t generation);
   std::shared_ptr<Session> create_session_locked(const std::string& robot_id);
+  // Starts, keeps or hands back the robot's session as the fleet's rules say (on the pool).
+  void reconsider(const std::string& robot_id);
+  // Whether this server answers for a robot without a session ("no session" statuses): not when
+  // another live server serves it or ranks first for it.
+  bool answers_for(const std::string& robot_id) const;
+  // Writes the claims made or withdrawn under mutex_ (call after releasing it).
+  void publish_claims();
+  // Erases a session from the router (claim withdrawn); under mutex_.
+  void forget_locked(std::map<std::string, std::shared_ptr<Session>>::iterator it);
   void report_no_session(const std::string& robot_id, const std::string& topic, const std::string& detail);
 
   ServerConfig config_;
@@ -110,6 +133,27 @@ class Server {
   uint64_t refused_robot_ids_not_logged_ = 0;
   std::chrono::steady_clock::time_point last_refusal_log_{};
   std::map<std::string, ResumeState> saved_;  // the last run's states, given to sessions as they start
+  // The latest start request of every robot (served here or elsewhere), and which one this
+  // server acted on; the fleet's view; the other servers' resume states.
+  struct StoredRequest {
+    SessionRequestMessage request;
+    std::string group;
+    uint64_t handled_request_id = 0;
+    bool handled = false;
+  };
+  std::map<std::string, StoredRequest> requests_;
+  FleetView fleet_;
+  bool fleet_changed_ = false;
+  std::chrono::steady_clock::time_point last_rebalance_{};
+  std::map<std::string, ResumeState> peer_states_;
+  std::map<std::string, std::pair<int64_t, bool>> shared_;  // robot -> stamp, failed last shared
+  uint64_t messages_served_elsewhere_ = 0;
+  std::vector<std::pair<std::string, bool>> claims_to_publish_;  // under mutex_
+  std::mutex claims_mutex_;                                      // orders publish_claims()
+  // Robots another server served, and when this server last heard from each (any message): a
+  // robot is taken over only while it is heard, so a server cut off from the network takes none.
+  std::set<std::string> served_elsewhere_;
+  std::map<std::string, std::chrono::steady_clock::time_point> last_heard_;
   std::string last_saved_;                     // what save_state wrote last (to skip unchanged writes)
   std::map<std::string, std::chrono::steady_clock::time_point> ownerless_since_;  // robots with a session only
 };

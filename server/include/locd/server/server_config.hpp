@@ -43,6 +43,8 @@ struct ServerConfig {
   WorkerSettings plugin_workers;            // how plugins run: worker processes, deadlines, memory
   FailurePolicy failures;                   // restarts of failed plugins
   std::filesystem::path state_directory;    // where sessions' resume states survive a restart; empty = nowhere
+  double weight = 1.0;                      // share of the fleet's robots this server takes
+  std::string server_group;                 // robots with `server_group: NAME` go to servers of that group
 
   // `base_directory` anchors relative paths (the config file's folder).
   static ServerConfig parse(const std::string& yaml_text, const std::string& source_name,

@@ -162,6 +162,8 @@ class Session : public InstanceOwner, public std::enable_shared_from_this<Sessio
   void handle_configured_locked(Pending pending, worker::Reply& reply, Publication& out);
   void handle_update_locked(InFlight& done, worker::Reply& reply, Publication& out);
   void handle_control_locked(InFlight& done, worker::Reply& reply, Publication& out);
+  // A request that did not get its plugin configured.
+  void fail_pending_locked(uint64_t request_id, const std::string& error, Publication& out);
   void register_failure_locked(const std::string& description, Publication& out);
   void schedule_restart_locked(std::chrono::duration<double> delay);
   void restart(uint64_t generation);
@@ -181,6 +183,7 @@ class Session : public InstanceOwner, public std::enable_shared_from_this<Sessio
   std::optional<InFlight> in_flight_;
   std::optional<uint64_t> release_after_reply_;  // a replaced plugin, released once it answers
   std::array<std::optional<int64_t>, 6> last_stamp_;  // per measurement kind (variant index)
+  std::array<uint64_t, 6> last_sequence_{};           // per measurement kind; 0 = none yet
   SessionCounters counters_;
   std::optional<Plugin> current_;  // the plugin serving the session (instance 0 while restarting)
   std::optional<Pending> pending_;  // a plugin being configured

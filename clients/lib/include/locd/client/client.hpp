@@ -34,6 +34,8 @@ struct SessionStatus {
   double last_update_ms = 0.0;
   int64_t initial_pose_stamp_ns = 0;  // stamp of the last initial pose the plugin holds (0 = none)
   uint32_t failures = 0;              // plugin failures (crash, exit, hang, bad output)
+  uint64_t lost = 0;                  // sensor messages lost in transit (sequence gaps)
+  std::vector<std::pair<std::string, uint64_t>> lost_by_stream;  // topic, count (losses only)
   std::string localization = "unknown";  // "unknown", "tracking", "uncertain", "lost"
   std::string localization_reason;       // the plugin's criterion
   int64_t stamp_ns = 0;
