@@ -40,7 +40,9 @@ const char* kUsage =
     "  locsim montecarlo SCENARIO.yaml [--runs N] [--strategies a,b,...] [--json] [--plot FILE.png]\n"
     "                   [--plugin-dir DIR] [--seed N] [--duration S]\n"
     "      a road-sign scenario (feature_ekf landmarks), N seeded drives per association strategy\n"
-    "      (default: known_id, nearest_neighbor, jcbb, pda) side by side: CEP50/CEP95, wrong associations\n"
+    "      (default: known_id, nearest_neighbor, jcbb, pda) side by side: CEP50/CEP95, wrong associations;\n"
+    "      a segment-world scenario (corridor, ceiling hall, grid worlds): seeds N..N+runs-1 (default from 1)\n"
+    "      pooled: consistency, false alarms, kidnap / wrong-start detection and relocalization rates\n"
     "  locsim replay IN.mcap [--domain N] [--rate X | --fast] [--robot R]... [--server-timeout S] [--json]\n"
     "  locsim replay IN.mcap --offline [--plugin-dir DIR] [--map-dir DIR] [--rate X] [--robot R]... [--json]\n"
     "      a recording (locctl record, locsim run --mcap) fed again: into a running locd (default real time),\n"
@@ -51,6 +53,9 @@ const char* kUsage =
     "      N simulated robots (K distinct runs of a laser/odometry scenario, each robot its own id and\n"
     "      clock) against running locd servers: poses per second, latency p50/p99/max, what the servers\n"
     "      lost, dropped or rejected, and with --server-pid the servers' CPU and memory (workers included)\n"
+    "  Segment worlds, run / live / montecarlo: --kidnap-at S [--kidnap-distance M] carries the robot at S\n"
+    "      to a route pose >= M m away (default 10; its odometry does not see it); --wrong-start M starts\n"
+    "      the plugin from a route pose >= M m off. Either replaces the scenario's kidnap / start.\n"
     "  locsim --help\n"
     "Plugin directory for run: --plugin-dir, else $LOCD_PLUGIN_DIR, else <locsim's dir>/../plugins.\n";
 
