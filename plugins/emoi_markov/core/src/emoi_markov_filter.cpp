@@ -74,7 +74,8 @@ EmoiMarkovFilter::EmoiMarkovFilter(const EmoiMarkovConfig& config, ElevationMap 
     layers_ = std::move(source.layers);
     grid_ = std::make_unique<MarkovGrid>(dsm.geometry, layers_support(*layers_));
   } else {
-    matcher_ = std::make_unique<MaskedEmoiMatcher>(dsm, config.radii_m, config.match_resolution_m);
+    matcher_ = std::make_unique<MaskedEmoiMatcher>(dsm, config.radii_m, config.match_resolution_m,
+                                                   config.sensor.shape_edge_step_m);
     grid_ = std::make_unique<MarkovGrid>(dsm.geometry, cells_with_data(dsm));
   }
   config_.distortion.scale_stddev = config.odometry_error;
@@ -84,6 +85,8 @@ EmoiMarkovFilter::EmoiMarkovFilter(const EmoiMarkovConfig& config, ElevationMap 
   config_.local_map.resolution = dsm.geometry.resolution;
   local_map_ = std::make_unique<LocalElevationMap>(config_.local_map);
   summary_ = grid_->summary();
+  assessment_.estimate = summary_.mode;
+  assessment_.localization = {LocalizationState::kLost, "no sensor update yet"};
 }
 
 void EmoiMarkovFilter::set_pose(const PoseEstimate& pose) {
@@ -109,6 +112,7 @@ void EmoiMarkovFilter::set_pose(const PoseEstimate& pose) {
     const double stddev = std::sqrt(std::max({pose.covariance(0, 0), pose.covariance(1, 1), 0.0}));
     grid_->set_gaussian(xy, stddev);
     summary_ = grid_->summary();
+    assessment_ = assess_belief(grid_->belief(), grid_->occupied(), grid_->geometry(), config_.assessment);
     pending_shift_.setZero();
     pending_travel_m_ = 0.0;
   }
@@ -195,6 +199,10 @@ std::optional<FilterUpdateReport> EmoiMarkovFilter::after_insert() {
   }
   summary_ = grid_->summary();
   ++sensor_updates_;
+  assessment_ = assess_belief(grid_->belief(), grid_->occupied(), grid_->geometry(), config_.assessment);
+  if (report.motion.reset || (report.sensor.applied && !(report.sensor.evidence > 0.0))) {
+    assessment_.localization = {LocalizationState::kLost, "belief reset to uniform: no mass left after the update"};
+  }
   report.robot_emoi = last_robot_emoi_;
   report.distortion = distortion_;
   return report;
@@ -279,7 +287,7 @@ PoseEstimate EmoiMarkovFilter::estimate(int64_t stamp_ns) const {
   PoseEstimate out;
   out.header.stamp_ns = stamp_ns;
   out.header.frame_id = "map";
-  const Eigen::Vector2d xy = summary_.mode + pending_shift_;
+  const Eigen::Vector2d xy = assessment_.estimate + pending_shift_;
   double z = 0.0;
   int row = 0, col = 0;
   if (grid_->geometry().index_of(xy, row, col) && std::isfinite(dsm_elevation_(row, col))) {
@@ -294,7 +302,11 @@ PoseEstimate EmoiMarkovFilter::estimate(int64_t stamp_ns) const {
   out.pose = isometry_from_xyz_rpy(xy.x(), xy.y(), z, roll, pitch, map_heading());
   out.covariance = Matrix6d::Zero();
   const double drift = config_.odometry_error * pending_travel_m_;
-  out.covariance.block<2, 2>(0, 0) = summary_.covariance + Eigen::Matrix2d::Identity() * drift * drift;
+  // The belief's second moment about the estimate (the summary's is about the maximum cell).
+  const Eigen::Vector2d from_mode = summary_.mean - summary_.mode, from_estimate = summary_.mean - assessment_.estimate;
+  const Eigen::Matrix2d about_estimate = summary_.covariance - from_mode * from_mode.transpose() +
+                                         from_estimate * from_estimate.transpose();
+  out.covariance.block<2, 2>(0, 0) = about_estimate + Eigen::Matrix2d::Identity() * drift * drift;
   out.covariance(2, 2) = kHeightVariance;
   out.covariance(3, 3) = out.covariance(4, 4) = kTiltVariance;
   out.covariance(5, 5) = kHeadingStddev * kHeadingStddev;

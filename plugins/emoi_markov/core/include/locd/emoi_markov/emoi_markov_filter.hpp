@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "locd/emoi_markov/belief_assessment.hpp"
 #include "locd/emoi_markov/config.hpp"
 #include "locd/emoi_markov/dsm_io.hpp"
 #include "locd/emoi_markov/local_elevation_map.hpp"
@@ -59,6 +60,9 @@ class EmoiMarkovFilter {
   const EmoiMarkovConfig& config() const { return config_; }
   const DistortionReport& last_distortion() const { return distortion_; }
   const BeliefSummary& summary() const { return summary_; }
+  // The localization state and its criteria (belief_assessment.hpp), judged after every sensor
+  // update; before the first one: lost (the global belief, or the initial pose not yet checked).
+  const BeliefAssessment& assessment() const { return assessment_; }
   size_t sensor_updates() const { return sensor_updates_; }
   size_t rejected_points() const { return rejected_points_; }
   size_t belief_resets() const { return belief_resets_; }
@@ -113,6 +117,7 @@ class EmoiMarkovFilter {
   double pending_travel_m_ = 0.0;
   double travelled_m_ = 0.0;
   BeliefSummary summary_;
+  BeliefAssessment assessment_;
   size_t sensor_updates_ = 0;
   size_t rejected_points_ = 0;
   size_t belief_resets_ = 0;
