@@ -72,7 +72,8 @@ int main(int argc, char** argv) {
     Confusion final_state, every_update;
     locd::sim::emoi::PoseConsistency poses;
     double update_nees = 0.0, update_nees_heading = 0.0;
-    int updates = 0, update_outside = 0, cell_successes = 0;
+    int updates = 0, update_outside = 0, cell_successes = 0, mode_outside = 0, mode_updates = 0;
+    double mode_nees = 0.0;
     std::cout << std::fixed << std::setprecision(2);
     for (int k = 0; k < runs; ++k) {
       const auto result = locd::sim::emoi::run_four_positions(scenario, seed0 + k);
@@ -94,6 +95,11 @@ int main(int argc, char** argv) {
         update_nees += u.nees_position;
         update_nees_heading += u.nees_heading;
         update_outside += u.nees_position > 9.2103 ? 1 : 0;
+        if (u.nees_main_mode >= 0.0) {
+          ++mode_updates;
+          mode_nees += u.nees_main_mode;
+          mode_outside += u.nees_main_mode > 9.2103 ? 1 : 0;
+        }
         ++updates;
       }
       if (static_cast<int>(result.updates.size()) >= scenario.updates) {
@@ -108,6 +114,8 @@ int main(int argc, char** argv) {
       poses.nees_heading_sum += result.consistency.nees_heading_sum;
       poses.outside_99_position += result.consistency.outside_99_position;
       poses.outside_99_heading += result.consistency.outside_99_heading;
+      poses.confidently_wrong += result.consistency.confidently_wrong;
+      poses.tracking += result.consistency.tracking;
       if (verbose) {
         for (const auto& u : result.updates) {
           std::cout << std::setprecision(4) << "    update " << u.update << " error " << u.error_m << " m; EMOI robot/DSM:";
@@ -115,7 +123,8 @@ int main(int argc, char** argv) {
             std::cout << " " << u.robot_emoi[i] << "/" << u.dsm_emoi[i] << " (cov " << u.coverage[i] << ")";
           }
           std::cout << std::setprecision(2) << "\n      " << state_letter(u.state) << " " << u.reason
-                    << "; NEES " << u.nees_position << "\n";
+                    << "; NEES " << u.nees_position << "; fit " << u.fit_rms_m << " m; peak mass " << u.peak_mass
+                    << "\n";
         }
       }
     }
@@ -129,12 +138,16 @@ int main(int argc, char** argv) {
     std::cout << "sensor updates: " << updates << ", mean NEES position " << (updates ? update_nees / updates : 0.0)
               << " (2 dof), heading " << (updates ? update_nees_heading / updates : 0.0) << " (1 dof), outside the 99 % ellipse "
               << update_outside << " (" << (updates ? 100.0 * update_outside / updates : 0.0) << " %)\n";
+    std::cout << "against the heaviest mode's covariance: mean NEES " << (mode_updates ? mode_nees / mode_updates : 0.0)
+              << ", outside the 99 % ellipse " << mode_outside << " of " << mode_updates << "\n";
     const double n = static_cast<double>(std::max<size_t>(poses.poses, 1));
     std::cout << "every pose after the first update: " << poses.poses << ", mean NEES position "
               << poses.nees_position_sum / n << ", heading " << poses.nees_heading_sum / n
               << "; outside the 99 % ellipse: position " << poses.outside_99_position << " ("
               << 100.0 * poses.outside_99_position / n << " %), heading " << poses.outside_99_heading << " ("
-              << 100.0 * poses.outside_99_heading / n << " %)\n";
+              << 100.0 * poses.outside_99_heading / n << " %); tracking " << poses.tracking << " ("
+              << 100.0 * poses.tracking / n << " %), confidently wrong (outside the 99 % ellipse while tracking) "
+              << poses.confidently_wrong << " (" << 100.0 * poses.confidently_wrong / n << " %)\n";
   } catch (const std::exception& e) {
     std::cerr << "emoi_four_positions_eval: " << e.what() << "\n";
     return 1;

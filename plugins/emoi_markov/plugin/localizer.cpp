@@ -101,6 +101,7 @@ UpdateResult EmoiMarkovLocalizer::sensor_update_result(int64_t stamp_ns,
   values.emplace_back("modes", static_cast<double>(assessment.modes.size()));
   values.emplace_back("belief_area_m2", assessment.area_m2);
   values.emplace_back("peak_mass", assessment.peak_mass);
+  if (std::isfinite(assessment.fit_rms_m)) values.emplace_back("fit_rms_m", assessment.fit_rms_m);
   values.emplace_back("sensor_updates", static_cast<double>(filter_->sensor_updates()));
   values.emplace_back("rejected_points", static_cast<double>(filter_->rejected_points()));
   return result;

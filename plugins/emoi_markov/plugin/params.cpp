@@ -27,7 +27,7 @@ EmoiMarkovConfig parse_config(const Params& params) {
                       "belief_output_max_cells", "sensor_model", "match_resolution_m", "ground_offset_stddev_m",
                       "odometry_direction_error_rad", "distortion_nodes", "distortion_max_cells",
                       "distortion_support_mass", "shape_sigma_m", "shape_edge_step_m", "tracking_radius_m", "tracking_mass",
-                      "min_mode_mass", "lost_area_m2"});
+                      "min_mode_mass", "lost_area_m2", "max_fit_rms_m"});
   EmoiMarkovConfig config;
   config.map = params.required_text("map");
   config.radii_m = params.numbers("radii_m", config.radii_m, 0, Range::open(0.0, 1000.0));
@@ -83,6 +83,7 @@ EmoiMarkovConfig parse_config(const Params& params) {
   assessment.tracking_mass = params.number("tracking_mass", assessment.tracking_mass, Range::open(0.0, 1.0));
   assessment.min_mode_mass = params.number("min_mode_mass", assessment.min_mode_mass, Range::open(0.0, 0.5));
   assessment.lost_area_m2 = params.number("lost_area_m2", assessment.lost_area_m2, Range::positive());
+  assessment.max_fit_rms_m = params.number("max_fit_rms_m", assessment.max_fit_rms_m, Range::positive());
   return config;
 }
 

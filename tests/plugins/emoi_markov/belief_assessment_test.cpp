@@ -159,6 +159,31 @@ TEST(BeliefAssessment, EachStateFromItsCriterion) {
   EXPECT_EQ(a.modes.size(), 2u);
 }
 
+// The fit criterion: a tight single mode is tracking only once the local map has been checked
+// against the DSM at the estimate and fits within max_fit_rms_m; it never lifts another state.
+TEST(BeliefAssessment, TrackingNeedsTheLocalMapToFitAtTheEstimate) {
+  const GridGeometry g = geometry(400, 0.1);
+  const AssessmentConfig config;  // max_fit_rms_m 0.2
+  const BeliefAssessment tight = assess_belief(blobs(g, {{{20.0, 20.0}, 0.3, 1.0}}), whole(g), g, config);
+  ASSERT_EQ(tight.localization.state, LocalizationState::kTracking);
+  BeliefAssessment a = tight;
+  apply_fit(a, std::nan(""), config);
+  EXPECT_EQ(a.localization.state, LocalizationState::kUncertain);
+  EXPECT_NE(a.localization.reason.find("not yet checked"), std::string::npos) << a.localization.reason;
+  a = tight;
+  apply_fit(a, 0.5, config);
+  EXPECT_EQ(a.localization.state, LocalizationState::kUncertain);
+  EXPECT_NE(a.localization.reason.find("max_fit_rms_m"), std::string::npos) << a.localization.reason;
+  EXPECT_DOUBLE_EQ(a.fit_rms_m, 0.5);
+  a = tight;
+  apply_fit(a, 0.05, config);
+  EXPECT_EQ(a.localization.state, LocalizationState::kTracking);
+  EXPECT_NE(a.localization.reason.find("fits to 0.05 m"), std::string::npos) << a.localization.reason;
+  a = assess_belief(blobs(g, {{{20.0, 20.0}, 1.0, 1.0}}), whole(g), g, config);  // too wide
+  apply_fit(a, 0.05, config);
+  EXPECT_EQ(a.localization.state, LocalizationState::kUncertain);
+}
+
 // The belief's second moment about the estimate, as the filter reports it (summary covariance
 // moved from the maximum cell to the estimate), is honest for a Gaussian belief: truths drawn
 // from the belief give a mean NEES of 2 (2 dof) and 1 % outside the 99 % ellipse.

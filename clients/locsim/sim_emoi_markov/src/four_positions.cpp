@@ -188,6 +188,7 @@ RunResult drive(const FourPositionsScenario& scenario, const SimulatedRun& run, 
   RunResult result;
   result.seed = seed;
   double update_ms_total = 0.0;
+  LocalizationState state = LocalizationState::kUnknown;  // the plugin's last judgement
   simulate_measurements(scenario, run, seed, [&](const Measurement& m, const Eigen::Isometry3d& truth) {
     const auto t0 = std::chrono::steady_clock::now();
     UpdateResult out;
@@ -197,6 +198,7 @@ RunResult drive(const FourPositionsScenario& scenario, const SimulatedRun& run, 
       return false;
     }
     const double elapsed_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (out.localization) state = out.localization->state;
     if (!out.estimate) return false;
     const Consistency nees = consistency_of(*out.estimate, truth);
     if (!result.updates.empty() || out.grid) {
@@ -206,6 +208,9 @@ RunResult drive(const FourPositionsScenario& scenario, const SimulatedRun& run, 
       c.nees_heading_sum += nees.heading;
       c.outside_99_position += nees.position > kChiSquare99TwoDof ? 1 : 0;
       c.outside_99_heading += nees.heading > kChiSquare99OneDof ? 1 : 0;
+      const bool confident = state == LocalizationState::kTracking || state == LocalizationState::kUnknown;
+      c.confidently_wrong += confident && nees.position > kChiSquare99TwoDof ? 1 : 0;
+      c.tracking += state == LocalizationState::kTracking ? 1 : 0;
     }
     // A sensor update is the one that publishes the belief grid.
     if (!out.grid) return false;
@@ -228,12 +233,20 @@ RunResult drive(const FourPositionsScenario& scenario, const SimulatedRun& run, 
       if (name == "peak_mass") record.peak_mass = value;
       if (name == "modes") record.modes = static_cast<int>(value);
       if (name == "belief_area_m2") record.area_m2 = value;
+      if (name == "fit_rms_m") record.fit_rms_m = value;
     }
     if (core) {
       const auto& grid = core->grid();
       record.truth_mass = locd::emoi::mass_within(grid.belief(), grid.occupied(), grid.geometry(), record.truth,
                                                   scenario.success_radius_m);
       record.cell_maximum_error_m = (core->summary().mode - record.truth).norm();
+      const auto& assessment = core->assessment();
+      if (!assessment.modes.empty()) {
+        const auto& mode = assessment.modes.front();
+        const Eigen::Vector2d e = record.mode - record.truth, d = mode.mean - record.mode;
+        const Eigen::Matrix2d P = mode.covariance + d * d.transpose();
+        record.nees_main_mode = e.dot(P.ldlt().solve(e));
+      }
     }
     int row = 0, col = 0;
     if (core && core->full_disk_layers()) {

@@ -25,25 +25,33 @@ std::string metres(double value, const char* unit) {
   return text;
 }
 
-// The smallest value v such that the cells >= v hold at least `mass` of the total (ties kept).
+// A value v such that the cells >= v hold at least `mass` of the total, and nearly no more: the
+// lower edge of the log-spaced bin (kBins over kDecades below the maximum) where the running sum
+// from the top reaches it. Cells below the bins' range (max * 1e-12) are left out of the region.
 float region_threshold(const cv::Mat_<float>& cells, double mass) {
-  std::vector<float> values;
-  values.reserve(cells.total());
+  constexpr int kBins = 1024;
+  constexpr double kDecades = 12.0;
+  double high = 0.0;
+  cv::minMaxLoc(cells, nullptr, &high);
+  if (!(high > 0.0)) return 0.0f;
+  const double top = std::log10(high), bins_per_decade = kBins / kDecades;
+  std::vector<double> held(kBins, 0.0);
   double total = 0.0;
-  for (const float v : cells) {
-    if (v > 0.0f) {
-      values.push_back(v);
-      total += v;
+  for (int r = 0; r < cells.rows; ++r) {
+    const float* p = cells.ptr<float>(r);
+    for (int c = 0; c < cells.cols; ++c) {
+      if (!(p[c] > 0.0f)) continue;
+      total += p[c];
+      const int bin = static_cast<int>((top - std::log10(static_cast<double>(p[c]))) * bins_per_decade);
+      if (bin < kBins) held[std::max(bin, 0)] += p[c];
     }
   }
-  if (values.empty()) return 0.0f;
-  std::sort(values.begin(), values.end(), [](float a, float b) { return a > b; });
-  double held = 0.0;
-  for (const float v : values) {
-    held += v;
-    if (held >= mass * total) return v;
+  double running = 0.0;
+  for (int bin = 0; bin < kBins; ++bin) {
+    running += held[bin];
+    if (running >= mass * total) return static_cast<float>(std::pow(10.0, top - (bin + 1) / bins_per_decade));
   }
-  return values.back();
+  return static_cast<float>(std::pow(10.0, top - kDecades));
 }
 
 }  // namespace
@@ -125,10 +133,17 @@ cv::Mat_<float> pooled_mass(const cv::Mat_<float>& belief, const cv::Rect& nonze
   pooled_geometry.width = (geometry.width + factor - 1) / factor;
   pooled_geometry.height = (geometry.height + factor - 1) / factor;
   cv::Mat_<float> pooled(pooled_geometry.height, pooled_geometry.width, 0.0f);
+  const int end = nonzero.x + nonzero.width;
   for (int r = nonzero.y; r < nonzero.y + nonzero.height; ++r) {
     const float* p = belief.ptr<float>(r);
     float* out = pooled.ptr<float>(r / factor);
-    for (int c = nonzero.x; c < nonzero.x + nonzero.width; ++c) out[c / factor] += p[c];
+    // Whole pooled cells in one run each (no division per cell).
+    for (int c = nonzero.x; c < end;) {
+      const int column = c / factor, stop = std::min(end, (column + 1) * factor);
+      float sum = 0.0f;
+      for (; c < stop; ++c) sum += p[c];
+      out[column] += sum;
+    }
   }
   return pooled;
 }
@@ -229,6 +244,24 @@ BeliefAssessment assess_belief(const cv::Mat_<float>& belief, const cv::Rect& no
                     metres(config.tracking_radius_m, "m") + " of the estimate";
   }
   return out;
+}
+
+void apply_fit(BeliefAssessment& assessment, double fit_rms_m, const AssessmentConfig& config) {
+  assessment.fit_rms_m = fit_rms_m;
+  LocalizationAssessment& judged = assessment.localization;
+  if (judged.state != LocalizationState::kTracking) return;
+  if (!std::isfinite(fit_rms_m)) {
+    judged.state = LocalizationState::kUncertain;
+    judged.reason = "one mode, " + percent(assessment.peak_mass) + " of the belief within " +
+                    metres(config.tracking_radius_m, "m") +
+                    ", not yet checked against the local map's elevations";
+  } else if (fit_rms_m > config.max_fit_rms_m) {
+    judged.state = LocalizationState::kUncertain;
+    judged.reason = "the local map fits the DSM at the estimate to " + metres(fit_rms_m, "m") +
+                    " RMS > max_fit_rms_m " + metres(config.max_fit_rms_m, "m");
+  } else {
+    judged.reason += ", local map fits to " + metres(fit_rms_m, "m") + " RMS";
+  }
 }
 
 }  // namespace locd::emoi

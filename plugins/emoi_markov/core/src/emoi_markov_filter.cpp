@@ -113,9 +113,22 @@ void EmoiMarkovFilter::set_pose(const PoseEstimate& pose) {
     grid_->set_gaussian(xy, stddev);
     summary_ = grid_->summary();
     assessment_ = assess_belief(grid_->belief(), grid_->occupied(), grid_->geometry(), config_.assessment);
+    fit_cells_.clear();
+    fit_residual_.clear();
+    apply_fit(assessment_, fit_at(assessment_.estimate), config_.assessment);
     pending_shift_.setZero();
     pending_travel_m_ = 0.0;
   }
+}
+
+double EmoiMarkovFilter::fit_at(const Eigen::Vector2d& position) const {
+  int row = 0, col = 0;
+  if (fit_residual_.empty() || !matcher_->surface().geometry.index_of(position, row, col)) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  const auto at = std::find(fit_cells_.begin(), fit_cells_.end(), cv::Point(col, row));
+  if (at == fit_cells_.end()) return std::numeric_limits<double>::quiet_NaN();
+  return std::sqrt(static_cast<double>(fit_residual_[static_cast<size_t>(at - fit_cells_.begin())]));
 }
 
 Eigen::Isometry3d EmoiMarkovFilter::base_in_odom() const {
@@ -200,6 +213,7 @@ std::optional<FilterUpdateReport> EmoiMarkovFilter::after_insert() {
   summary_ = grid_->summary();
   ++sensor_updates_;
   assessment_ = assess_belief(grid_->belief(), grid_->occupied(), grid_->geometry(), config_.assessment);
+  apply_fit(assessment_, fit_at(assessment_.estimate), config_.assessment);
   if (report.motion.reset || (report.sensor.applied && !(report.sensor.evidence > 0.0))) {
     assessment_.localization = {LocalizationState::kLost, "belief reset to uniform: no mass left after the update"};
   }
@@ -255,6 +269,8 @@ EmoiMarkovFilter::WindowLikelihood EmoiMarkovFilter::masked_likelihood(const cv:
         support_likelihood(*matcher_, patch_under, hypotheses_, config_.distortion, config_.sensor, previous_coarse,
                            matcher_->pool(grid_->belief(), grid_->occupied()), shift, residual);
     if (!sparse.cells.empty()) {
+      fit_cells_ = sparse.cells;
+      fit_residual_ = sparse.best_shape_residual;
       distortion_ = sparse.report;
       weights = sparse.weights;
       keep_robot_side(sparse.identity);
@@ -274,6 +290,8 @@ EmoiMarkovFilter::WindowLikelihood EmoiMarkovFilter::masked_likelihood(const cv:
       return out;
     }
   }
+  fit_cells_.clear();
+  fit_residual_.clear();
   last_match_ = matcher_->match(patch_under(Eigen::Matrix2d::Identity()));
   keep_robot_side(*last_match_);
   cv::Mat_<float> coarse = matcher_->coarse_log_likelihood(*last_match_, config_.sensor, &weights);

@@ -70,20 +70,26 @@ struct UpdateRecord {
   double peak_mass = 0.0;             // belief within the tracking radius of the estimate
   int modes = 0;
   double area_m2 = 0.0;               // exp(entropy) * cell area
+  double fit_rms_m = -1.0;            // the local map against the DSM at the estimate (-1: not computed)
   // Consistency: the error against the reported covariance.
   double nees_position = 0.0;         // e^T P^-1 e over (x, y)
   double nees_heading = 0.0;
   double truth_mass = -1.0;           // belief within success_radius_m of the truth (in-process runs only)
   double cell_maximum_error_m = -1.0; // error of the belief grid's most probable cell (in-process runs only)
+  double nees_main_mode = -1.0;       // against the heaviest mode's covariance (in-process runs only)
 };
 
 // Every pose after the first sensor update (odometry poses between updates included): NEES of
-// position (2 dof) and heading (1 dof) against the reported covariance.
+// position (2 dof) and heading (1 dof) against the reported covariance. "Confidently wrong":
+// outside the 99 % ellipse while the plugin's last state was tracking (or unknown): nothing
+// warned the user.
 struct PoseConsistency {
   size_t poses = 0;
   double nees_position_sum = 0.0, nees_heading_sum = 0.0;
   size_t outside_99_position = 0;     // NEES above the chi-square 99 % point (2 dof: 9.21)
   size_t outside_99_heading = 0;      // (1 dof: 6.63)
+  size_t confidently_wrong = 0;       // outside_99_position while tracking or unknown
+  size_t tracking = 0;                // poses while the state was tracking
 };
 
 struct RunResult {

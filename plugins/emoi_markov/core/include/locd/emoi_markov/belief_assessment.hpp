@@ -8,12 +8,19 @@
 //              the area a uniform belief of the same entropy would cover
 //   peak mass  the belief's mass within `tracking_radius_m` of the estimate (on the belief grid)
 //
+//   fit        the RMS difference between the local map's elevations and the DSM's at the
+//              estimate (best vertical offset, best distortion hypothesis, object edges left out):
+//              computed by the sparse sensor model, which runs once the prior is concentrated
+//
 //   lost       no sensor update yet, the belief reset, or its area above `lost_area_m2`
-//   uncertain  more than one mode, or the peak mass below `tracking_mass`
-//   tracking   otherwise: one mode holding (nearly) all the belief, and at least tracking_mass of
-//              it within tracking_radius_m of the estimate
+//   uncertain  more than one mode, or the peak mass below `tracking_mass`, or the fit not
+//              computed (a global update concentrated the belief: not yet checked) or above
+//              `max_fit_rms_m` (the belief is concentrated on a place the local map does not fit)
+//   tracking   otherwise: one mode holding (nearly) all the belief, at least tracking_mass of it
+//              within tracking_radius_m of the estimate, and the local map fits there
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -41,6 +48,9 @@ struct BeliefAssessment {
   double entropy_nats = 0.0;       // on the mode grid
   double area_m2 = 0.0;            // exp(entropy) * cell area
   double peak_mass = 0.0;          // within tracking_radius_m of the estimate (its disk's mass)
+  // How well the local map fits the DSM at the estimate: the RMS shape residual there under the
+  // best-fitting distortion hypothesis (m); NaN when the update did not compute it (global).
+  double fit_rms_m = std::numeric_limits<double>::quiet_NaN();
   LocalizationAssessment localization;
 };
 
@@ -75,5 +85,9 @@ Eigen::Vector2d disk_maximum(const cv::Mat_<float>& belief, const cv::Rect& nonz
 // `nonzero`: the belief is zero outside it.
 BeliefAssessment assess_belief(const cv::Mat_<float>& belief, const cv::Rect& nonzero, const GridGeometry& geometry,
                                const AssessmentConfig& config);
+
+// The fit criterion on an assessment of the belief: a tracking state stands only with a fit
+// (fit_rms_m finite) within config.max_fit_rms_m; sets assessment.fit_rms_m.
+void apply_fit(BeliefAssessment& assessment, double fit_rms_m, const AssessmentConfig& config);
 
 }  // namespace locd::emoi

@@ -16,7 +16,7 @@ struct SensorModelConfig {
   double min_coverage = 0.3;        // a radius with a thinner local map is left out
   double full_coverage = 0.9;       // from here on a radius gets its full weight
   double ground_offset_stddev_m = 0.0;  // masked model: prior on the robot's ground height error
-  double shape_sigma_m = 0.2;  // masked model, sparse updates: RMS elevation residual of the local map
+  double shape_sigma_m = 0.035;  // masked model, sparse updates: RMS elevation residual of the local map
                                // against the DSM worth one standard deviation (0 = EMOI only)
   double shape_edge_step_m = 0.5;  // the shape residual leaves out DSM cells stepping by more than
                                    // this to a neighbour (object edges; 0 = none left out)
@@ -49,6 +49,7 @@ struct AssessmentConfig {
   double mode_region_mass = 0.99;   // the modes are the connected regions of the cells holding this much
   double mode_cell_m = 1.0;         // the grid the modes and the entropy are found on
   double lost_area_m2 = 1000.0;     // a belief spread wider (exp(entropy) * cell area) is lost
+  double max_fit_rms_m = 0.2;       // tracking needs the local map to fit the DSM at the estimate this well
 };
 
 struct EmoiMarkovConfig {

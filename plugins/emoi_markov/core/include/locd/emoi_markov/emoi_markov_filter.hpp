@@ -95,6 +95,9 @@ class EmoiMarkovFilter {
   // The full-disk model (the paper's): log p(z|x) on the DSM grid.
   cv::Mat_<float> full_disk_log_likelihood_now(std::vector<double>& weights);
   Eigen::Isometry3d base_in_odom() const;
+  // The last sparse update's fit (RMS shape residual, m) at the matching cell holding `position`;
+  // NaN when not computed there.
+  double fit_at(const Eigen::Vector2d& position) const;
   double map_heading() const;
 
   EmoiMarkovConfig config_;
@@ -118,6 +121,10 @@ class EmoiMarkovFilter {
   double travelled_m_ = 0.0;
   BeliefSummary summary_;
   BeliefAssessment assessment_;
+  // The last sparse update's support (matching cells) and best shape residual per cell: the fit
+  // at the estimate (BeliefAssessment::fit_rms_m); empty after a global update.
+  std::vector<cv::Point> fit_cells_;
+  std::vector<float> fit_residual_;
   size_t sensor_updates_ = 0;
   size_t rejected_points_ = 0;
   size_t belief_resets_ = 0;
