@@ -353,16 +353,36 @@ int locsim_run_four_positions(const fs::path& file, const std::vector<fs::path>&
     if (!json) {
       out << "seed " << r.seed << (r.success ? "  ok  " : "  FAIL") << "  error after each update [m]:";
       for (const auto& u : r.updates) out << " " << u.error_m;
+      if (!r.updates.empty()) {
+        out << "  state: " << localization_state_name(r.updates.back().state) << " (" << r.updates.back().reason << ")";
+      }
       out << "\n" << std::flush;
     }
     results.push_back(std::move(r));
   }
   const double rate = seeds.empty() ? 0.0 : static_cast<double>(successes) / static_cast<double>(seeds.size());
+  // The state after the last update against the outcome; NEES over every pose after the first update.
+  int wrong = 0, wrong_flagged = 0, right_flagged = 0;
+  PoseConsistency poses;
+  for (const RunResult& r : results) {
+    const bool flagged = !r.updates.empty() && (r.updates.back().state == LocalizationState::kUncertain ||
+                                                r.updates.back().state == LocalizationState::kLost);
+    wrong += r.success ? 0 : 1;
+    wrong_flagged += !r.success && flagged ? 1 : 0;
+    right_flagged += r.success && flagged ? 1 : 0;
+    poses.poses += r.consistency.poses;
+    poses.nees_position_sum += r.consistency.nees_position_sum;
+    poses.outside_99_position += r.consistency.outside_99_position;
+    poses.confidently_wrong += r.consistency.confidently_wrong;
+  }
+  const double pose_count = static_cast<double>(std::max<size_t>(poses.poses, 1));
   if (json) {
     std::vector<std::vector<double>> errors;
+    std::vector<std::string> states;
     for (const RunResult& r : results) {
       errors.emplace_back();
       for (const auto& u : r.updates) errors.back().push_back(u.error_m);
+      states.push_back(r.updates.empty() ? "unknown" : localization_state_name(r.updates.back().state));
     }
     const nlohmann::ordered_json summary = {{"scenario", scenario.name},
                                             {"plugin", "emoi_markov"},
@@ -371,11 +391,23 @@ int locsim_run_four_positions(const fs::path& file, const std::vector<fs::path>&
                                             {"success_rate", rate},
                                             {"success_radius_m", scenario.success_radius_m},
                                             {"updates", scenario.updates},
-                                            {"errors_m", errors}};
+                                            {"errors_m", errors},
+                                            {"final_states", states},
+                                            {"wrong_flagged", wrong_flagged},
+                                            {"right_flagged", right_flagged},
+                                            {"nees_position_mean", poses.nees_position_sum / pose_count},
+                                            {"outside_99_share", static_cast<double>(poses.outside_99_position) / pose_count},
+                                            {"confidently_wrong_share", static_cast<double>(poses.confidently_wrong) / pose_count}};
     out << summary.dump() << "\n";
   } else {
     out << "success: " << successes << " / " << seeds.size() << " (belief maximum within " << scenario.success_radius_m
         << " m of the truth after update " << scenario.updates << ")\n";
+    out << "state after the last update: uncertain or lost in " << wrong_flagged << " of " << wrong
+        << " wrong runs, in " << right_flagged << " of " << successes << " right runs (false alarms)\n";
+    out << "every pose after the first update: mean NEES " << poses.nees_position_sum / pose_count
+        << " (2 dof), outside the 99 % ellipse " << 100.0 * static_cast<double>(poses.outside_99_position) / pose_count
+        << " %, confidently wrong (there while tracking) "
+        << 100.0 * static_cast<double>(poses.confidently_wrong) / pose_count << " %\n";
   }
   return complete ? 0 : 1;
 }
