@@ -5,6 +5,7 @@
 #include <limits>
 #include <sstream>
 
+#include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
 #include "locd/emoi_markov/emoi_cache.hpp"
@@ -322,8 +323,15 @@ PoseEstimate EmoiMarkovFilter::estimate(int64_t stamp_ns) const {
   const double drift = config_.odometry_error * pending_travel_m_;
   // The belief's second moment about the estimate (the summary's is about the maximum cell).
   const Eigen::Vector2d from_mode = summary_.mean - summary_.mode, from_estimate = summary_.mean - assessment_.estimate;
-  const Eigen::Matrix2d about_estimate = summary_.covariance - from_mode * from_mode.transpose() +
-                                         from_estimate * from_estimate.transpose();
+  // About the mean first; its eigenvalues kept at least the cell's own extent (the subtraction
+  // rounds in float for a wide belief).
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> about_mean(summary_.covariance -
+                                                                  from_mode * from_mode.transpose());
+  const double cell_variance = grid_->geometry().resolution * grid_->geometry().resolution / 12.0;
+  const Eigen::Matrix2d about_estimate =
+      about_mean.eigenvectors() * about_mean.eigenvalues().cwiseMax(cell_variance).asDiagonal() *
+          about_mean.eigenvectors().transpose() +
+      from_estimate * from_estimate.transpose();
   out.covariance.block<2, 2>(0, 0) = about_estimate + Eigen::Matrix2d::Identity() * drift * drift;
   out.covariance(2, 2) = kHeightVariance;
   out.covariance(3, 3) = out.covariance(4, 4) = kTiltVariance;
