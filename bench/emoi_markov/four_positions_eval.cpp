@@ -86,7 +86,8 @@ int main(int argc, char** argv) {
       if (!result.updates.empty()) {
         const auto& last = result.updates.back();
         std::cout << "  last: peak mass " << last.peak_mass << ", truth mass " << last.truth_mass << ", modes "
-                  << last.modes << ", area " << last.area_m2 << " m^2, NEES " << last.nees_position;
+                  << last.modes << ", area " << last.area_m2 << " m^2, NEES " << last.nees_position
+                  << "; poses confidently wrong " << result.consistency.confidently_wrong;
       }
       std::cout << "\n" << std::flush;
       for (const auto& u : result.updates) {
@@ -116,6 +117,7 @@ int main(int argc, char** argv) {
       poses.outside_99_heading += result.consistency.outside_99_heading;
       poses.confidently_wrong += result.consistency.confidently_wrong;
       poses.tracking += result.consistency.tracking;
+      poses.nees_position_tracking_sum += result.consistency.nees_position_tracking_sum;
       if (verbose) {
         for (const auto& u : result.updates) {
           std::cout << std::setprecision(4) << "    update " << u.update << " error " << u.error_m << " m; EMOI robot/DSM:";
@@ -146,7 +148,9 @@ int main(int argc, char** argv) {
               << "; outside the 99 % ellipse: position " << poses.outside_99_position << " ("
               << 100.0 * poses.outside_99_position / n << " %), heading " << poses.outside_99_heading << " ("
               << 100.0 * poses.outside_99_heading / n << " %); tracking " << poses.tracking << " ("
-              << 100.0 * poses.tracking / n << " %), confidently wrong (outside the 99 % ellipse while tracking) "
+              << 100.0 * poses.tracking / n << " %, mean NEES position while tracking "
+              << (poses.tracking ? poses.nees_position_tracking_sum / static_cast<double>(poses.tracking) : 0.0)
+              << "), confidently wrong (outside the 99 % ellipse while tracking) "
               << poses.confidently_wrong << " (" << 100.0 * poses.confidently_wrong / n << " %)\n";
   } catch (const std::exception& e) {
     std::cerr << "emoi_four_positions_eval: " << e.what() << "\n";

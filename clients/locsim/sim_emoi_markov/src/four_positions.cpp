@@ -210,7 +210,10 @@ RunResult drive(const FourPositionsScenario& scenario, const SimulatedRun& run, 
       c.outside_99_heading += nees.heading > kChiSquare99OneDof ? 1 : 0;
       const bool confident = state == LocalizationState::kTracking || state == LocalizationState::kUnknown;
       c.confidently_wrong += confident && nees.position > kChiSquare99TwoDof ? 1 : 0;
-      c.tracking += state == LocalizationState::kTracking ? 1 : 0;
+      if (state == LocalizationState::kTracking) {
+        ++c.tracking;
+        c.nees_position_tracking_sum += nees.position;
+      }
     }
     // A sensor update is the one that publishes the belief grid.
     if (!out.grid) return false;

@@ -90,6 +90,7 @@ struct PoseConsistency {
   size_t outside_99_heading = 0;      // (1 dof: 6.63)
   size_t confidently_wrong = 0;       // outside_99_position while tracking or unknown
   size_t tracking = 0;                // poses while the state was tracking
+  double nees_position_tracking_sum = 0.0;  // over those
 };
 
 struct RunResult {
