@@ -276,6 +276,28 @@ TEST(DistortionMixture, DirectMaskedSumsEqualTheDftMatch) {
   }
 }
 
+// The shape residual's direct formula at cell x of a 100 x 100 map: min over c of the mean of
+// (T - e - c)^2 over the observed cells of the disk of `reach` cells that have data and are not
+// `left_out`; NaN without any.
+template <class LeftOut>
+double direct_shape_residual(const ElevationMap& map, const cv::Mat_<float>& patch, const cv::Point& x, int reach,
+                             LeftOut left_out) {
+  const int half = patch.rows / 2;
+  double sum = 0.0, square = 0.0, n = 0.0;
+  for (int dr = -reach; dr <= reach; ++dr)
+    for (int dc = -reach; dc <= reach; ++dc) {
+      const int r = x.y + dr, c = x.x + dc;
+      if (dr * dr + dc * dc >= reach * reach || r < 0 || c < 0 || r >= 100 || c >= 100) continue;
+      const float t = patch(half + dr, half + dc), e = map.elevation(r, c);
+      if (!std::isfinite(t) || !std::isfinite(e) || left_out(r, c)) continue;
+      const double d = static_cast<double>(t) - e;
+      sum += d;
+      square += d * d;
+      n += 1.0;
+    }
+  return n < 1.0 ? std::nan("") : square / n - (sum / n) * (sum / n);
+}
+
 // The shape term: at each listed cell, min over c of the mean of (T - e - c)^2 over the observed
 // cells of the largest disk that have data, against that formula summed directly; the map's own
 // elevations cut out as the patch (lifted by a constant) match exactly where they were cut and
@@ -307,19 +329,7 @@ TEST(ShapeResidual, EqualsTheBestOffsetMeanSquaredDifference) {
         EXPECT_TRUE(std::isnan(got)) << x;
         continue;
       }
-      double sum = 0.0, square = 0.0, n = 0.0;
-      for (int dr = -reach; dr <= reach; ++dr)
-        for (int dc = -reach; dc <= reach; ++dc) {
-          const int r = x.y + dr, c = x.x + dc;
-          if (dr * dr + dc * dc >= reach * reach || r < 0 || c < 0 || r >= 100 || c >= 100) continue;
-          const float t = patch(half + dr, half + dc), e = map.elevation(r, c);
-          if (!std::isfinite(t) || !std::isfinite(e)) continue;
-          const double d = static_cast<double>(t) - e;
-          sum += d;
-          square += d * d;
-          n += 1.0;
-        }
-      const double expected = square / n - (sum / n) * (sum / n);
+      const double expected = direct_shape_residual(map, patch, x, reach, [](int, int) { return false; });
       EXPECT_NEAR(got, expected, 1e-3 * std::max(1.0, expected)) << x << " lift " << lift;
       if (i > 0) {
         EXPECT_GT(got, 0.05) << "only the cut cell matches: " << x;
@@ -393,20 +403,8 @@ TEST(ShapeResidual, LeavesOutTheDsmsEdgeCells) {
   for (size_t i = 0; i < cells.size(); ++i) {
     const cv::Point& x = cells[i];
     if (!std::isfinite(map.elevation(x.y, x.x))) continue;
-    double sum = 0.0, square = 0.0, n = 0.0;
-    for (int dr = -reach; dr <= reach; ++dr)
-      for (int dc = -reach; dc <= reach; ++dc) {
-        const int r = x.y + dr, c = x.x + dc;
-        if (dr * dr + dc * dc >= reach * reach || r < 0 || c < 0 || r >= 100 || c >= 100) continue;
-        const float t = patch(half + dr, half + dc), e = map.elevation(r, c);
-        if (!std::isfinite(t) || !std::isfinite(e) || edge(r, c)) continue;
-        const double d = static_cast<double>(t) - e;
-        sum += d;
-        square += d * d;
-        n += 1.0;
-      }
-    if (n < 1.0) continue;
-    const double expected = square / n - (sum / n) * (sum / n);
+    const double expected = direct_shape_residual(map, patch, x, reach, edge);
+    if (std::isnan(expected)) continue;
     EXPECT_NEAR(with.shape_residual(0, static_cast<int>(i)), expected, 1e-3 * std::max(1.0, expected)) << x;
     ++compared;
   }
