@@ -79,7 +79,7 @@ struct Method {
 };
 
 struct Tally {
-  int runs = 0, successes = 0, claimed = 0, claimed_wrong = 0;
+  int runs = 0, successes = 0, claimed = 0, claimed_wrong = 0, agree = 0;
   double cpu_ms = 0, iterations = 0, worst_cm = 0, worst_deg = 0, success_cm = 0, success_deg = 0;
   std::vector<double> times;
 };
@@ -173,7 +173,7 @@ int main(int argc, char** argv) try {
   gicp.setTransformationEpsilon(1e-6);
   gicp.setInputTarget(pcl_target);
   pcl::NormalDistributionsTransform<pcl::PointXYZ, pcl::PointXYZ> ndt;
-  ndt.setResolution(1.0);
+  ndt.setResolution(2.0);  // Autoware's outdoor setting; 1.0 m failed from 0.5 m / 5 deg in 8 of 8 starts
   ndt.setStepSize(0.1);
   ndt.setTransformationEpsilon(1e-4);
   ndt.setMaximumIterations(64);
@@ -244,6 +244,12 @@ int main(int argc, char** argv) try {
               pair.source.points.size(), pair.target.points.size(), options.voxel, source.size(), target.size());
   std::printf("target preparation (once): icp_explorer voxel models (fine and coarse) %.1f ms, Open3D normals %.1f ms\n", model_ms,
               o3d_normals_ms);
+  // Each method's own answer from the reference transform: the optimum its cost has near the truth.
+  std::vector<Eigen::Isometry3d> from_truth;
+  for (const Method& m : methods) from_truth.push_back(m.run(truth).pose);
+  for (size_t m = 0; m < methods.size(); ++m)
+    std::printf("%s from the reference itself: %.2f cm, %.3f deg off it\n", methods[m].name.c_str(),
+                translation_error_cm(from_truth[m], truth), rotation_error_deg(from_truth[m], truth));
   for (const auto& [offset_m, offset_deg] : options.offsets) {
     std::vector<Eigen::Isometry3d> starts;
     for (int k = 0; k < 8; ++k) {
@@ -276,7 +282,9 @@ int main(int argc, char** argv) try {
           ++t.runs;
           t.successes += success;
           t.claimed += o.converged;
-          t.claimed_wrong += o.converged && !success;
+          const bool agrees = translation_error_cm(o.pose, from_truth[m]) <= 2.0 && rotation_error_deg(o.pose, from_truth[m]) <= 0.2;
+          t.claimed_wrong += o.converged && !agrees;
+          t.agree += agrees;
           t.iterations += o.iterations;
           t.worst_cm = std::max(t.worst_cm, cm);
           t.worst_deg = std::max(t.worst_deg, deg);
@@ -288,8 +296,9 @@ int main(int argc, char** argv) try {
       }
     }
     std::printf("\noffset %.2f m / %.1f deg, 8 starts, %d rounds\n", offset_m, offset_deg, options.rounds);
-    std::printf("| method | success (<= 2 cm, 0.2 deg) | mean error of successes | worst error | "
-                "says converged (wrongly) | iterations | CPU ms per registration (median) | vs first |\n|---|---|---|---|---|---|---|---|\n");
+    std::printf("| method | success (<= 2 cm, 0.2 deg of the reference) | mean error of successes | worst error | "
+                "within 2 cm, 0.2 deg of its answer from the reference | says converged (wrongly) | iterations | "
+                "CPU ms per registration (median) | vs first |\n|---|---|---|---|---|---|---|---|---|\n");
     auto median = [](std::vector<double> v) {
       std::sort(v.begin(), v.end());
       return v[v.size() / 2];
@@ -298,9 +307,10 @@ int main(int argc, char** argv) try {
     for (size_t m = 0; m < methods.size(); ++m) {
       const Tally& t = tallies[m];
       const double med = median(t.times);
-      std::printf("| %s | %d of %d | %.2f cm, %.3f deg | %.1f cm, %.2f deg | %d (%d) | %.1f | %.1f | %.2fx |\n",
+      std::printf("| %s | %d of %d | %.2f cm, %.3f deg | %.1f cm, %.2f deg | %d of %d | %d (%d) | %.1f | %.1f | %.2fx |\n",
                   methods[m].name.c_str(), t.successes, t.runs, t.successes ? t.success_cm / t.successes : 0.0,
-                  t.successes ? t.success_deg / t.successes : 0.0, t.worst_cm, t.worst_deg, t.claimed, t.claimed_wrong,
+                  t.successes ? t.success_deg / t.successes : 0.0, t.worst_cm, t.worst_deg, t.agree, t.runs, t.claimed,
+                  t.claimed_wrong,
                   t.iterations / t.runs, med, med / ours);
     }
   }

@@ -130,8 +130,13 @@ ScanOutcome IcpExplorer::add_scan(const PointCloud& cloud) {
     const RegistrationResult& r = out.registration;
     if (r.fits) {
       out.T_map_base = r.T_map_base;
+      // No direction is known better than a tenth of a map voxel of the scan's point motion (the
+      // model's resolution; sigma^2 H^+ alone assumes independent residuals, which voxel
+      // sampling errors are not).
+      const double floor = 0.1 * config_.map_voxel_size;
       covariance = r.covariance + model_covariance(r) +
-                   r.degenerate_projector * prior * r.degenerate_projector.transpose();
+                   r.degenerate_projector * prior * r.degenerate_projector.transpose() +
+                   floor * floor * r.local_to_xi * r.local_to_xi.transpose();
       out.localization.state = r.converged ? LocalizationState::kTracking : LocalizationState::kUncertain;
       out.localization.reason = r.verdict;
     } else {

@@ -192,7 +192,7 @@ struct Pass {
   // rings of a floor, would pin the scan to the voxel sampling along a bare surface: a constraint
   // the geometry does not give); with point-to-point every pair.
   Matrix6d information = Matrix6d::Zero();
-  double information_weight = 0.0;
+  double information_weight = 0.0, information_squared_error = 0.0;
   size_t correspondences = 0, beyond_distance = 0, back_facing = 0, within_reach = 0;
   std::array<size_t, kRejectionKinds> counts{};
   std::vector<double> residuals;  // |r| of accepted correspondences (point-to-point: |r| / sqrt(3))
@@ -294,7 +294,10 @@ class Registration {
       pass.squared_error += w * residual2;
       pass.weight_sum += w;
       ++pass.correspondences;
-      if (in_information) pass.information_weight += w;
+      if (in_information) {
+        pass.information_weight += w;
+        pass.information_squared_error += w * residual2;
+      }
       if (final_pass) {
         if (overlapping && residual2 <= inlier2) {
           ++pass.inliers;
@@ -479,7 +482,8 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
   result.information_by_insert = std::move(final_pass.by_insert);
   if (final_pass.information_weight > 0.0) {
     const LocalSystem local = local_system(final_pass, T * scanner_in_base, scale_at(T), settings.degeneracy);
-    const double sigma2 = std::max(result.rms_error * result.rms_error, 1e-8);
+    // The residual variance of the pairs in the information (kernel-weighted).
+    const double sigma2 = std::max(final_pass.information_squared_error / final_pass.information_weight, 1e-8);
     Matrix6d inverse_local = Matrix6d::Zero(), degenerate_local = Matrix6d::Zero();
     for (int i = 0; i < 6; ++i) {
       const Vector6d u = local.eigen.eigenvectors().col(i);
@@ -493,6 +497,7 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
     }
     result.directions = local.eigen.eigenvectors();
     result.degenerate_directions = local.degenerate;
+    result.local_to_xi = local.M;
     result.constrained_inverse = local.M * inverse_local * local.M.transpose();
     result.covariance = sigma2 * result.constrained_inverse;
     if (stop != IcpStop::kConverged) {

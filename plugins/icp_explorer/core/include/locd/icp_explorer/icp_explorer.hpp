@@ -11,7 +11,8 @@
 // + the model's: the scans whose voxels the correspondences used carry their own covariance into
 //   this pose (bounded for any correlation between them, Cauchy-Schwarz: sum_s M_s S_s M_s^T / pi_s,
 //   M_s = H^+ H_s the share of the solution scan s's voxels determine, pi_s their share of the weight)
-// + the prior's, along the poorly constrained directions (held to odometry).
+// + the prior's, along the poorly constrained directions (held to odometry)
+// + a floor: a tenth of a map voxel of RMS point motion in every direction (the model's resolution).
 // A scan that does not fit the model (RegistrationResult::fits false) is not added to the model:
 // the outcome is the odometry prediction with the prior's covariance, and the state is lost.
 #pragma once

@@ -73,6 +73,7 @@ struct RegistrationResult {
   Vector6d constraint_shares = Vector6d::Zero();
   Matrix6d directions = Matrix6d::Identity();
   int degenerate_directions = 0;
+  Matrix6d local_to_xi = Matrix6d::Identity();  // xi = local_to_xi z at the final pose
   // The same in xi (left perturbation about the map origin): the covariance of the
   // well-constrained part, and the projector onto the poorly constrained directions (its
   // component of a perturbation; identity - projector keeps the rest).
