@@ -134,11 +134,13 @@ ScanOutcome IcpExplorer::add_scan(const PointCloud& cloud) {
       // model's resolution; sigma^2 H^+ alone assumes independent residuals, which voxel
       // sampling errors are not).
       const double floor = 0.1 * config_.map_voxel_size;
-      covariance = r.covariance + model_covariance(r) +
-                   r.degenerate_projector * prior * r.degenerate_projector.transpose() +
+      covariance = r.covariance + model_covariance(r) + r.prior_projector * prior * r.prior_projector.transpose() +
                    floor * floor * r.local_to_xi * r.local_to_xi.transpose();
+      // Only a trustworthy registration extends the map; one that fits but did not converge (or
+      // leaves too many directions open) gives its pose as uncertain.
+      out.added_to_model = r.converged;
       out.localization.state = r.converged ? LocalizationState::kTracking : LocalizationState::kUncertain;
-      out.localization.reason = r.verdict;
+      out.localization.reason = r.converged ? r.verdict : r.verdict + "; scan not added to the map";
     } else {
       // The scan contradicts the model where odometry puts it: keep the prediction, leave the model alone.
       covariance = prior;

@@ -121,14 +121,18 @@ Matrix6d xi_to_local(const Eigen::Vector3d& c, const Eigen::Matrix3d& rotation_s
 // While the kernel is above this multiple of its final scale the registration is coarse: only
 // every coarse_stride-th data point is used.
 constexpr double kCoarseKernelMultiple = 4.0;
-// The pose has settled at the current kernel scale when a step moves the scan's points (RMS, |z|)
-// by less than this fraction of the scale.
+// The pose has settled at the current kernel scale when a step moves no point of the scan by
+// more than this fraction of the scale.
 constexpr double kSettledFraction = 0.1;
 // Each time the pose settles the kernel scale shrinks by this factor, down to kernel_scale but
 // never below this multiple of the residuals' robust standard deviation: a kernel narrower than
 // the data's own noise would discard good correspondences and leave the optimum to a few of them.
 constexpr double kKernelShrink = 0.5;
 constexpr double kNoiseMultiple = 3.0;
+// A model normal with |n_z| at or above this is a floor or a ceiling (trust: structure share).
+constexpr double kLevelSurface = 0.7;
+// The inlier share is taken over structure (walls, furniture) when at least this many points overlap it.
+constexpr size_t kMinStructurePoints = 30;
 // Iterates kept for the covariance of a registration that did not converge.
 constexpr size_t kRecentPoses = 5;
 // A 6-DoF step needs at least this many accepted correspondences.
@@ -193,12 +197,20 @@ struct Pass {
   // the geometry does not give); with point-to-point every pair.
   Matrix6d information = Matrix6d::Zero();
   double information_weight = 0.0, information_squared_error = 0.0;
+  // Each pair's Jacobian rows in xi, with its weight and the data point in the map frame (the
+  // strong-contribution test of the analysis).
+  std::vector<Eigen::Matrix<double, 1, 6>> rows;
+  std::vector<double> row_weights;
+  std::vector<Eigen::Vector3d> row_points;
   size_t correspondences = 0, beyond_distance = 0, back_facing = 0, within_reach = 0;
   std::array<size_t, kRejectionKinds> counts{};
   std::vector<double> residuals;  // |r| of accepted correspondences (point-to-point: |r| / sqrt(3))
   // Final pass only.
   size_t inliers = 0;
   double inlier_squared_error = 0.0;
+  // The same over the points whose model point is not on a floor or ceiling (normal within
+  // kLevelSurface of vertical): a floor fits whatever the horizontal error.
+  size_t structure_within_reach = 0, structure_inliers = 0;
   std::vector<int> insert_slot;  // model insert -> index in by_insert, -1 if none yet
   std::vector<std::pair<uint32_t, Matrix6d>> by_insert;
 };
@@ -235,6 +247,9 @@ class Registration {
   Pass run_pass(const Eigen::Isometry3d& T, double kernel, size_t stride, bool final_pass) {
     Pass pass;
     pass.residuals.reserve(scan_.points.size() / stride + 1);
+    pass.rows.reserve(scan_.points.size() / stride + 1);
+    pass.row_weights.reserve(scan_.points.size() / stride + 1);
+    pass.row_points.reserve(scan_.points.size() / stride + 1);
     const double kernel2 = kernel * kernel;
     const double inlier2 = settings_.trust.inlier_distance * settings_.trust.inlier_distance;
     const double overlap2 = settings_.trust.overlap_distance * settings_.trust.overlap_distance;
@@ -250,9 +265,6 @@ class Registration {
         continue;
       }
       const size_t j = match.model;
-      // The scan overlaps the model here (a point farther from every model point sees something new).
-      const bool overlapping = (x - model_.points()[j]).squaredNorm() <= overlap2;
-      pass.within_reach += overlapping;
       if (!match.judged) {
         match.verdict = rejector_.check(p, with_intensity_ ? scan_.intensity[i] : no_intensity, model_.points()[j],
                                         with_intensity_ ? model_.intensity()[j] : no_intensity);
@@ -266,6 +278,12 @@ class Registration {
         ++pass.back_facing;
         continue;
       }
+      // The scan overlaps the model here: an accepted, front-facing pair within overlap_distance (a
+      // point farther from every model point, or facing the back of a surface, sees something new).
+      const bool overlapping = (x - q).squaredNorm() <= overlap2;
+      const bool structure = std::abs(n.z()) < kLevelSurface;
+      pass.within_reach += overlapping;
+      pass.structure_within_reach += overlapping && structure;
       double residual2 = 0.0, w = 0.0;
       bool in_information = false;
       Matrix6d JtJ;
@@ -278,6 +296,9 @@ class Registration {
           for (int b = a; b < 6; ++b) pass.information(a, b) += w * J(a) * J(b);
         pass.g.noalias() += (w * r) * J.transpose();
         in_information = true;
+        pass.rows.push_back(J);
+        pass.row_weights.push_back(w);
+        pass.row_points.push_back(x);
         if (final_pass) JtJ.noalias() = J.transpose() * J;
       } else {
         const Eigen::Vector3d r = x - q;
@@ -287,6 +308,12 @@ class Registration {
         pass.H.noalias() += w * J.transpose() * J;
         pass.g.noalias() += w * J.transpose() * r;
         in_information = settings_.metric == IcpMetric::kPointToPoint;
+        if (in_information)
+          for (int a = 0; a < 3; ++a) {
+            pass.rows.push_back(J.row(a));
+            pass.row_weights.push_back(w);
+            pass.row_points.push_back(x);
+          }
         if (final_pass) JtJ.noalias() = J.transpose() * J;
       }
       pass.residuals.push_back(settings_.metric == IcpMetric::kPointToPlane && !n.isZero() ? std::sqrt(residual2)
@@ -301,6 +328,7 @@ class Registration {
       if (final_pass) {
         if (overlapping && residual2 <= inlier2) {
           ++pass.inliers;
+          pass.structure_inliers += structure;
           pass.inlier_squared_error += residual2;
         }
         const uint32_t insert = model_.first_insert(j);
@@ -335,14 +363,26 @@ class Registration {
   std::vector<RememberedMatch> matches_;
 };
 
-// The information in the local frame z = N xi, split into eigen-directions; the first
-// `degenerate` (eigenvalue below the threshold) are poorly constrained.
+// The information in the local frame z = N xi, split into eigen-directions (ascending
+// eigenvalues). A direction's constraint is the information it gets from pairs that constrain it
+// strongly: the pair's residual direction (its model normal) within 60 degrees of the motion the
+// direction gives its point (|J u| >= kStrongContribution |motion|), as a share of the pairs'
+// total weight (after X-ICP, Tuna et al. 2023: many pairs each leaning slightly toward a
+// direction, e.g. the slightly tilted normals of a bare corridor's walls along its axis, do not
+// make it constrained). Directions whose share is below the threshold are
+// poorly constrained; they are ordered first (`degenerate` of them) in `order`.
 struct LocalSystem {
   Matrix6d M, N;  // xi = M z, z = N xi
   Eigen::SelfAdjointEigenSolver<Matrix6d> eigen;
-  double threshold = 0.0;
+  Vector6d shares = Vector6d::Zero();
+  Matrix6d U = Matrix6d::Identity();  // eigenvectors, poorly constrained first
+  Vector6d lambda = Vector6d::Zero();  // their eigenvalues
+  std::array<int, 6> order{};          // U.col(k) = eigenvectors().col(order[k])
   int degenerate = 0;
+  int order_index(int k) const { return order[static_cast<size_t>(k)]; }
 };
+
+constexpr double kStrongContribution = 0.5;
 
 LocalSystem local_system(const Pass& pass, const Eigen::Vector3d& scanner, const Eigen::Matrix3d& rotation_scale,
                          const DegeneracySettings& settings) {
@@ -350,10 +390,29 @@ LocalSystem local_system(const Pass& pass, const Eigen::Vector3d& scanner, const
   s.M = local_to_xi(scanner, rotation_scale);
   s.N = xi_to_local(scanner, rotation_scale);
   s.eigen.compute(s.M.transpose() * pass.information * s.M);
-  s.threshold = settings.min_constraint_share * pass.information_weight;
+  const Matrix6d V = s.M * s.eigen.eigenvectors();  // J_xi V = J_z U
+  Vector6d strong = Vector6d::Zero();
+  for (size_t k = 0; k < pass.rows.size(); ++k) {
+    const Eigen::Matrix<double, 1, 6> c = pass.rows[k] * V;
+    const Eigen::Vector3d& x = pass.row_points[k];
+    for (int i = 0; i < 6; ++i) {
+      const double motion = (V.col(i).head<3>() + V.col(i).tail<3>().cross(x)).norm();
+      if (std::abs(c(i)) >= kStrongContribution * motion) strong(i) += pass.row_weights[k] * c(i) * c(i);
+    }
+  }
+  const double total = std::max(pass.information_weight, 1e-12);
+  std::vector<int> order, constrained;
   for (int i = 0; i < 6; ++i) {
-    const double lambda = s.eigen.eigenvalues()(i);
-    s.degenerate += !(lambda >= s.threshold && lambda > 0.0);
+    s.shares(i) = strong(i) / total;
+    const bool poor = !(s.shares(i) >= settings.min_constraint_share && s.eigen.eigenvalues()(i) > 0.0);
+    (poor ? order : constrained).push_back(i);
+  }
+  s.degenerate = static_cast<int>(order.size());
+  order.insert(order.end(), constrained.begin(), constrained.end());
+  for (int k = 0; k < 6; ++k) {
+    s.order[static_cast<size_t>(k)] = order[static_cast<size_t>(k)];
+    s.U.col(k) = s.eigen.eigenvectors().col(order[static_cast<size_t>(k)]);
+    s.lambda(k) = s.eigen.eigenvalues()(order[static_cast<size_t>(k)]);
   }
   return s;
 }
@@ -406,6 +465,8 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
   const std::vector<Eigen::Vector3d> offsets = offsets_from(scan, scanner_in_base);
   const Eigen::Matrix3d rotation_scale_in_base = rotation_scale(offsets);
   result.lever_arm = std::sqrt(0.5 * rotation_scale_in_base.squaredNorm());
+  double farthest = 0.0;
+  for (const Eigen::Vector3d& d : offsets) farthest = std::max(farthest, d.norm());
   // z's rotation scale in the map frame at pose T.
   auto scale_at = [&](const Eigen::Isometry3d& T) -> Eigen::Matrix3d {
     return T.linear() * rotation_scale_in_base * T.linear().transpose();
@@ -431,8 +492,8 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
       // Gauss-Newton on the well-constrained directions (the last 6 - degenerate eigenvectors);
       // the poorly constrained ones return to the prior.
       const int constrained = 6 - local.degenerate;
-      const Eigen::MatrixXd U = local.eigen.eigenvectors().rightCols(constrained);
-      const Eigen::MatrixXd D = local.eigen.eigenvectors().leftCols(local.degenerate);
+      const Eigen::MatrixXd U = local.U.rightCols(constrained);
+      const Eigen::MatrixXd D = local.U.leftCols(local.degenerate);
       const Vector6d to_prior = local.N * se3_log(T_initial * T.inverse());
       z = D * (D.transpose() * to_prior);
       if (constrained > 0) z -= U * (U.transpose() * H_local * U).ldlt().solve(U.transpose() * g_local);
@@ -446,10 +507,12 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
     T = se3_exp(local.M * z) * T;
     if (recent.size() == kRecentPoses) recent.erase(recent.begin());
     recent.push_back(T);
-    // Coarse to fine: the kernel shrinks once the pose has settled at the current scale (|z| is
-    // the RMS motion of the scan's points); at the final scale the convergence thresholds end the loop.
+    // Coarse to fine: the kernel shrinks once the pose has settled at the current scale; at the
+    // final scale the convergence thresholds end the loop.
     const double moved = z.head<3>().norm(), turned = (local.M * z).tail<3>().norm();
-    if (z.norm() < kSettledFraction * kernel) {
+    // Settled: the step moves no point of the scan by more than a tenth of the scale (its motion at
+    // the scanner plus its rotation times the farthest point's distance).
+    if (moved + turned * farthest < kSettledFraction * kernel) {
       const double next = std::max({settings.kernel_scale, kNoiseMultiple * robust_sigma(pass.residuals), kernel * kKernelShrink});
       if (next < kernel) {
         kernel = next;
@@ -471,11 +534,14 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
   result.counts = final_pass.counts;
   result.beyond_distance = final_pass.beyond_distance;
   result.back_facing = final_pass.back_facing;
-  result.within_reach = final_pass.within_reach;
+  // The share over structure when there is enough of it, else over every overlapping point.
+  const bool by_structure = final_pass.structure_within_reach >= kMinStructurePoints;
+  result.within_reach = by_structure ? final_pass.structure_within_reach : final_pass.within_reach;
   result.rms_error = final_pass.weight_sum > 0.0 ? std::sqrt(final_pass.squared_error / final_pass.weight_sum) : 0.0;
   result.inliers = final_pass.inliers;
+  const size_t share_inliers = by_structure ? final_pass.structure_inliers : final_pass.inliers;
   result.inlier_share =
-      final_pass.within_reach > 0 ? static_cast<double>(final_pass.inliers) / static_cast<double>(final_pass.within_reach) : 0.0;
+      result.within_reach > 0 ? static_cast<double>(share_inliers) / static_cast<double>(result.within_reach) : 0.0;
   result.inlier_rms =
       final_pass.inliers > 0 ? std::sqrt(final_pass.inlier_squared_error / static_cast<double>(final_pass.inliers)) : 0.0;
   result.information = final_pass.information;
@@ -484,17 +550,22 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
     const LocalSystem local = local_system(final_pass, T * scanner_in_base, scale_at(T), settings.degeneracy);
     // The residual variance of the pairs in the information (kernel-weighted).
     const double sigma2 = std::max(final_pass.information_squared_error / final_pass.information_weight, 1e-8);
-    Matrix6d inverse_local = Matrix6d::Zero(), degenerate_local = Matrix6d::Zero();
+    Matrix6d inverse_local = Matrix6d::Zero(), degenerate_local = Matrix6d::Zero(), prior_local = Matrix6d::Zero();
     for (int i = 0; i < 6; ++i) {
-      const Vector6d u = local.eigen.eigenvectors().col(i);
-      const double lambda = local.eigen.eigenvalues()(i);
+      const Vector6d u = local.U.col(i);
       if (i >= local.degenerate) {
-        inverse_local += u * u.transpose() / lambda;
+        inverse_local += u * u.transpose() / local.lambda(i);
+        // Barely constrained (share below twice the threshold): the prior's variance is kept in
+        // part, falling linearly from all of it at the threshold to none at twice it.
+        const double t = settings.degeneracy.min_constraint_share;
+        const double share = local.shares(local.order_index(i));
+        if (t > 0.0 && share < 2.0 * t) prior_local += std::sqrt((2.0 * t - share) / t) * u * u.transpose();
       } else {
         degenerate_local += u * u.transpose();
+        prior_local += u * u.transpose();
       }
-      result.constraint_shares(i) = lambda / final_pass.information_weight;
     }
+    result.constraint_shares = local.shares;
     result.directions = local.eigen.eigenvectors();
     result.degenerate_directions = local.degenerate;
     result.local_to_xi = local.M;
@@ -510,9 +581,11 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
       if (!recent.empty()) result.covariance += spread / static_cast<double>(recent.size());
     }
     result.degenerate_projector = local.M * degenerate_local * local.N;
+    result.prior_projector = local.M * prior_local * local.N;
   } else {
     result.degenerate_directions = 6;
     result.degenerate_projector = Matrix6d::Identity();
+    result.prior_projector = Matrix6d::Identity();
   }
 
   // Trust.
@@ -531,8 +604,9 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
                   trust.max_degenerate_directions);
   } else {
     result.converged = true;
-    std::snprintf(text, sizeof text, "converged: inliers %.0f %%, RMS %.3f m, %d direction(s) held to odometry",
-                  100.0 * result.inlier_share, result.inlier_rms, result.degenerate_directions);
+    std::snprintf(text, sizeof text, "converged: inliers %.0f %%, RMS %.3f m, %d poorly constrained direction(s)%s",
+                  100.0 * result.inlier_share, result.inlier_rms, result.degenerate_directions,
+                  result.degenerate_directions > 0 && settings.degeneracy.hold_to_prior ? " held to odometry" : "");
   }
   result.verdict = text;
   return result;

@@ -32,10 +32,10 @@ struct RejectionRules {
 enum class IcpMetric { kPointToPlane, kPointToPoint };
 
 // Degeneracy (modified_icp.hpp): the information matrix of the normal equations, in a frame at the
-// scanner with rotations scaled by the scan's RMS range (so every coordinate is metres of point
-// motion), is split into eigen-directions. A direction whose eigenvalue is below
-// min_constraint_share x the correspondences' total kernel weight is poorly constrained: the
-// registration does not move the pose along it (the odometry prior holds it) and reports the
+// scanner with rotations scaled by the scan's inertia (so every coordinate is metres of point
+// motion), is split into eigen-directions. A direction that gets less than min_constraint_share
+// of the pairs' total kernel weight from pairs constraining it strongly is poorly constrained:
+// the registration does not move the pose along it (the odometry prior holds it) and reports the
 // prior's uncertainty there.
 struct DegeneracySettings {
   bool hold_to_prior = true;
@@ -45,8 +45,10 @@ struct DegeneracySettings {
 // When a registration is trustworthy (RegistrationResult::converged, the localization state).
 struct TrustSettings {
   // Inliers: accepted pairs whose residual (point-to-plane where the model has a normal) is within
-  // inlier_distance, among the data points overlapping the model (a model point within
-  // overlap_distance; points farther from every model point see something new and do not count).
+  // inlier_distance, among the data points overlapping the model (an accepted pair, its model
+  // surface facing the scanner, within overlap_distance; points farther from every model point or
+  // facing the back of a thin wall see something new and do not count) whose model point is not
+  // on a floor or ceiling (a floor fits whatever the horizontal error).
   double min_inlier_share = 0.5;
   double inlier_distance = 0.15;    // m
   double overlap_distance = 0.5;    // m

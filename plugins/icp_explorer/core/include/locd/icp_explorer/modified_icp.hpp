@@ -14,9 +14,10 @@
 // inertia tensor about the scanner (rotation_scale), so that |z| is the RMS motion of the scan's
 // points in metres whatever the direction. The information matrix (point-to-plane pairs only
 // with that metric: a pair without a model normal would pin the scan to the voxel sampling of a
-// bare surface) is split into eigen-directions in z; those whose eigenvalue falls below
-// DegeneracySettings::min_constraint_share x the pairs' total kernel weight are poorly
-// constrained: along them the step returns the pose to the prior (the odometry prediction)
+// bare surface) is split into eigen-directions in z; a direction's constraint is the information
+// from pairs that constrain it strongly (|J_z u| >= 0.5: for a translation, a model normal within
+// 60 degrees of it; after X-ICP, Tuna et al. 2023), as a share of the pairs' total kernel weight.
+// Those below DegeneracySettings::min_constraint_share are poorly constrained: along them the step returns the pose to the prior (the odometry prediction)
 // instead of following the data; the other directions take the Gauss-Newton step restricted to them. The result reports them, the covariance of the
 // well-constrained part (sigma^2 H^+, sigma the RMS residual) and the information each earlier
 // scan's voxels contributed (so a caller can add the uncertainty of the model itself).
@@ -60,15 +61,19 @@ struct RegistrationResult {
   size_t back_facing = 0;                      // at the final pose, model surface facing away from the scanner
   double rms_error = 0.0;                      // m, kernel-weighted RMS residual at the final pose
   double kernel_scale = 0.0;                   // m, the final kernel scale (kernel_scale, or 3 x the residuals' robust sigma)
-  size_t within_reach = 0;                     // data points overlapping the model (TrustSettings::overlap_distance)
-  size_t inliers = 0;                          // of them: accepted, residual within TrustSettings::inlier_distance
-  double inlier_share = 0.0;                   // inliers / within_reach
+  // Data points overlapping the model (TrustSettings::overlap_distance) and, of them, inliers
+  // (accepted, residual within inlier_distance). The share counts only points whose model point is
+  // not on a floor or ceiling (|n_z| < 0.7), when at least 30 are: a floor fits whatever the
+  // horizontal error.
+  size_t within_reach = 0;
+  size_t inliers = 0;                          // all overlapping points
+  double inlier_share = 0.0;
   double inlier_rms = 0.0;                     // m, RMS residual of the inliers
   Matrix6d information = Matrix6d::Zero();     // J^T W J at the final pose (the pairs above), xi about the map origin
 
-  // Degeneracy, in the local frame z (see above): ascending eigenvalues of the information
-  // divided by the total kernel weight (the share of the correspondences that constrain each
-  // direction), the eigenvectors as columns, and how many of the first ones are poorly constrained.
+  // Degeneracy, in the local frame z (see above): the eigenvectors of the information (columns,
+  // ascending eigenvalues), each one's constraint share (strong pairs' information / total
+  // weight), and how many directions are poorly constrained.
   double lever_arm = 1.0;                      // m, RMS lever of the scan's points about the scanner (|S| / sqrt 2)
   Vector6d constraint_shares = Vector6d::Zero();
   Matrix6d directions = Matrix6d::Identity();
@@ -79,6 +84,10 @@ struct RegistrationResult {
   // component of a perturbation; identity - projector keeps the rest).
   Matrix6d covariance = Matrix6d::Zero();
   Matrix6d degenerate_projector = Matrix6d::Zero();
+  // What of the prior's covariance to keep: the projector onto the poorly constrained directions
+  // plus, for directions constrained by less than twice min_constraint_share, sqrt(a) u u^T with a
+  // falling linearly from 1 at the threshold to 0 at twice it (prior_projector P: P S P^T).
+  Matrix6d prior_projector = Matrix6d::Zero();
   Matrix6d constrained_inverse = Matrix6d::Zero();  // H^+ on the well-constrained directions (covariance / sigma^2)
   // Information per model insert (VoxelMap::first_insert of the matched voxels), for the model's
   // own uncertainty: pairs (insert, J^T W J of the correspondences on its voxels).
