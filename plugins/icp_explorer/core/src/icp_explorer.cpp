@@ -136,11 +136,10 @@ ScanOutcome IcpExplorer::add_scan(const PointCloud& cloud) {
       const double floor = 0.1 * config_.map_voxel_size;
       covariance = r.covariance + model_covariance(r) + r.prior_projector * prior * r.prior_projector.transpose() +
                    floor * floor * r.local_to_xi * r.local_to_xi.transpose();
-      // Only a trustworthy registration extends the map; one that fits but did not converge (or
-      // leaves too many directions open) gives its pose as uncertain.
-      out.added_to_model = r.converged;
+      // A scan that fits extends the map even when the iterations ran out: leaving it out thins the
+      // map ahead of the robot, and the next registrations get worse (measured in the corridor).
       out.localization.state = r.converged ? LocalizationState::kTracking : LocalizationState::kUncertain;
-      out.localization.reason = r.converged ? r.verdict : r.verdict + "; scan not added to the map";
+      out.localization.reason = r.verdict;
     } else {
       // The scan contradicts the model where odometry puts it: keep the prediction, leave the model alone.
       covariance = prior;

@@ -13,9 +13,9 @@
 //   M_s = H^+ H_s the share of the solution scan s's voxels determine, pi_s their share of the weight)
 // + the prior's, along the poorly constrained directions (held to odometry)
 // + a floor: a tenth of a map voxel of RMS point motion in every direction (the model's resolution).
-// States (and the map): converged (RegistrationResult::converged) -> tracking, the scan extends
-// the map; fits but not converged -> uncertain, its pose with its covariance, the map unchanged;
-// does not fit -> lost, the odometry prediction with the prior's covariance, the map unchanged.
+// States (and the map): converged (RegistrationResult::converged) -> tracking; fits but not
+// converged -> uncertain (both extend the map); does not fit -> lost, the odometry prediction with
+// the prior's covariance, the map unchanged.
 #pragma once
 
 #include <Eigen/Core>
@@ -45,7 +45,7 @@ struct ScanOutcome {
   size_t source_points = 0;                     // after downsampling
   size_t carved_voxels = 0;                     // model voxels this scan saw through (ghosts)
   bool intensity_missing = false;               // rule (a) was off for this scan
-  bool added_to_model = false;                  // only after a trustworthy registration (or the first scan)
+  bool added_to_model = false;                  // false when the scan did not fit (state lost)
   LocalizationAssessment localization;          // from the registration's criteria (README)
   double preprocess_ms = 0.0, registration_ms = 0.0, model_update_ms = 0.0, planning_ms = 0.0;
 };
