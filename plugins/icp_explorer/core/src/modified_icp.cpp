@@ -383,6 +383,7 @@ struct LocalSystem {
 };
 
 constexpr double kStrongContribution = 0.5;
+constexpr double kSurelyConstrained = 0.1;
 
 LocalSystem local_system(const Pass& pass, const Eigen::Vector3d& scanner, const Eigen::Matrix3d& rotation_scale,
                          const DegeneracySettings& settings) {
@@ -391,16 +392,24 @@ LocalSystem local_system(const Pass& pass, const Eigen::Vector3d& scanner, const
   s.N = xi_to_local(scanner, rotation_scale);
   s.eigen.compute(s.M.transpose() * pass.information * s.M);
   const Matrix6d V = s.M * s.eigen.eigenvectors();  // J_xi V = J_z U
-  Vector6d strong = Vector6d::Zero();
+  const double total = std::max(pass.information_weight, 1e-12);
+  // Directions whose eigenvalue alone is a large share are constrained whatever the count (many
+  // slightly leaning pairs cannot add up to it); the count is made for the others only.
+  std::array<bool, 6> count{};
+  for (int i = 0; i < 6; ++i) count[static_cast<size_t>(i)] = s.eigen.eigenvalues()(i) < kSurelyConstrained * total;
+  Vector6d strong = s.eigen.eigenvalues();
+  for (int i = 0; i < 6; ++i)
+    if (count[static_cast<size_t>(i)]) strong(i) = 0.0;
+  const double tau2 = kStrongContribution * kStrongContribution;
   for (size_t k = 0; k < pass.rows.size(); ++k) {
-    const Eigen::Matrix<double, 1, 6> c = pass.rows[k] * V;
     const Eigen::Vector3d& x = pass.row_points[k];
     for (int i = 0; i < 6; ++i) {
-      const double motion = (V.col(i).head<3>() + V.col(i).tail<3>().cross(x)).norm();
-      if (std::abs(c(i)) >= kStrongContribution * motion) strong(i) += pass.row_weights[k] * c(i) * c(i);
+      if (!count[static_cast<size_t>(i)]) continue;
+      const double c = pass.rows[k].dot(V.col(i));
+      const double motion2 = (V.col(i).head<3>() + V.col(i).tail<3>().cross(x)).squaredNorm();
+      if (c * c >= tau2 * motion2) strong(i) += pass.row_weights[k] * c * c;
     }
   }
-  const double total = std::max(pass.information_weight, 1e-12);
   std::vector<int> order, constrained;
   for (int i = 0; i < 6; ++i) {
     s.shares(i) = strong(i) / total;
