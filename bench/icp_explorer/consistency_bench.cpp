@@ -59,16 +59,6 @@ struct Tally {
     const Eigen::Vector3d d(e[0], e[1], e[5]);
     const double nees = d.dot(S.ldlt().solve(d));
     const double sigma_x = std::sqrt(C(0, 0));
-    if (std::getenv("DEBUG_SCANS")) {
-      double share = -1, it = -1, cit = -1;
-      for (const auto& [n, v] : r.diagnostics.values) {
-        if (n == "smallest_constraint_share") share = v;
-        if (n == "iterations") it = v;
-        if (n == "coarse_iterations") cit = v;
-      }
-      std::fprintf(stderr, "at (%.1f, %.1f): e %.3f %.3f yaw %.2f sigma %.3f share %.4f it %g+%g %s\n", r.truth.x, r.truth.y, e[0], e[1], e[5] * 180 / M_PI, sigma_x, share, cit, it,
-                   r.localization ? r.localization->reason.c_str() : "");
-    }
     ++scans;
     within_3_sigma += std::abs(e[0]) <= 3.0 * sigma_x;
     outside_99 += nees > kChi2_3_99;
@@ -186,14 +176,6 @@ int main(int argc, char** argv) try {
                                                                 stops, static_cast<uint64_t>(seed), *localizer);
         for (size_t k = 1; k < records.size(); ++k) {
           t.add(records[k]);
-          if (std::getenv("DEBUG_STATES")) {
-            const auto& r = records[k];
-            const auto e = locd::sim::pose_error(*r.estimate, r.truth);
-            double share = -1;
-            for (const auto& [n, v] : r.diagnostics.values) if (n == "smallest_constraint_share") share = v;
-            std::fprintf(stderr, "seed %d scan %zu at (%.1f, %.1f): e %.3f %.3f sigma %.3f share %.4f: %s %s\n", seed, k, r.truth.x, r.truth.y, e[0], e[1], std::sqrt(r.estimate->covariance(0,0)), share,
-                         locd::localization_state_name(r.localization->state), r.localization->reason.c_str());
-          }
         }
       }
       t.print(hold ? "corridor, held to odometry (default)" : "corridor, not held (hold_to_prior: false)");

@@ -54,10 +54,15 @@ IcpExplorerConfig parse_config(const Params& p, const Limits& limits) {
       coarse.number("initial_kernel_scale", c.icp.coarse.initial_kernel_scale, Range{0.0, 50.0, true, false});
   c.icp.coarse.kernel_scale = coarse.number("kernel_scale", c.icp.coarse.kernel_scale, Range{0.0, 50.0, true, false});
   const Params degeneracy = icp.child("degeneracy");
-  degeneracy.expect_only({"hold_to_prior", "min_constraint_share"});
+  degeneracy.expect_only({"hold_to_prior", "min_constraint_share", "confident_constraint_share"});
   c.icp.degeneracy.hold_to_prior = degeneracy.flag("hold_to_prior", c.icp.degeneracy.hold_to_prior);
   c.icp.degeneracy.min_constraint_share =
       degeneracy.number("min_constraint_share", c.icp.degeneracy.min_constraint_share, Range{0.0, 1.0, false, true});
+  c.icp.degeneracy.confident_constraint_share = degeneracy.number(
+      "confident_constraint_share", c.icp.degeneracy.confident_constraint_share, Range{0.0, 1.0, false, true});
+  if (c.icp.degeneracy.confident_constraint_share < c.icp.degeneracy.min_constraint_share)
+    degeneracy.fail("confident_constraint_share", "must be at least min_constraint_share (" +
+                                                      std::to_string(c.icp.degeneracy.min_constraint_share) + ")");
   const Params trust = icp.child("trust");
   trust.expect_only({"min_inlier_share", "inlier_distance", "overlap_distance", "max_rms_error", "max_degenerate_directions"});
   c.icp.trust.min_inlier_share = trust.number("min_inlier_share", c.icp.trust.min_inlier_share, Range::closed(0.0, 1.0));

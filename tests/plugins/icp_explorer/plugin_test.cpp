@@ -276,11 +276,11 @@ TEST(IcpExplorerPlugin, LocalizationStateFollowsTheRegistration) {
   EXPECT_EQ(diagnostic(results[1], "converged"), 1.0);
   const double model_points = diagnostic(results[1], "model_points");
 
-  // An open hall with two crates: nothing like the two rooms.
+  // An open hall with two crates where the two rooms have free space: nothing like them.
   std::vector<locd::sim::SurfaceBox> hall{
       {Eigen::AlignedBox3d(Eigen::Vector3d(-20, -20, -0.2), Eigen::Vector3d(20, 20, 0)), 0.5f, "floor"},
-      {Eigen::AlignedBox3d(Eigen::Vector3d(5.0, 0.0, 0), Eigen::Vector3d(5.3, 2.0, 1.0)), 0.5f, "crate"},
-      {Eigen::AlignedBox3d(Eigen::Vector3d(2.0, 3.5, 0), Eigen::Vector3d(3.0, 3.8, 2.0)), 0.5f, "crate"}};
+      {Eigen::AlignedBox3d(Eigen::Vector3d(3.5, 1.8, 0), Eigen::Vector3d(3.8, 2.4, 1.0)), 0.5f, "crate"},
+      {Eigen::AlignedBox3d(Eigen::Vector3d(2.5, 0.8, 0), Eigen::Vector3d(3.5, 1.0, 2.0)), 0.5f, "crate"}};
   const locd::sim::IndoorWorld hall_world(std::move(hall), {});
   const locd::sim::Scanner3D scanner(locd::test::coarse_scanner());
   std::mt19937_64 rng(9);
@@ -290,7 +290,9 @@ TEST(IcpExplorerPlugin, LocalizationStateFollowsTheRegistration) {
   plugin->update(odom);
   const auto lost = plugin->update(scanner.scan(hall_world, locd::Pose2(4.2, 1.3, 0.2).to_isometry(), 0.0, 3'000'000'000, rng).cloud);
   ASSERT_TRUE(lost.localization && lost.estimate);
-  EXPECT_EQ(lost.localization->state, locd::LocalizationState::kLost) << lost.localization->reason;
+  EXPECT_EQ(lost.localization->state, locd::LocalizationState::kLost)
+      << lost.localization->reason << "; inliers " << diagnostic(lost, "inlier_share") << ", degenerate "
+      << diagnostic(lost, "degenerate_directions");
   EXPECT_NE(lost.localization->reason.find("does not fit"), std::string::npos) << lost.localization->reason;
   EXPECT_EQ(diagnostic(lost, "added_to_model"), 0.0);
   EXPECT_EQ(diagnostic(lost, "model_points"), model_points);

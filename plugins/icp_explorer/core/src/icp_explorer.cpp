@@ -186,17 +186,22 @@ ScanOutcome IcpExplorer::add_scan(const PointCloud& cloud) {
 }
 
 Matrix6d IcpExplorer::model_covariance(const RegistrationResult& r) const {
-  // pi_s: scan s's share of the correspondence weight (the trace of the translation block).
-  double total = 0.0;
-  for (const auto& [insert, H] : r.information_by_insert) total += H.topLeftCorner<3, 3>().trace();
-  Matrix6d sum = Matrix6d::Zero();
-  if (total <= 0.0) return sum;
+  // A_s = M_s S_s M_s^T, M_s = H^+ H_s: what scan s's own error does to this pose. Their sum's
+  // covariance is at most (sum_s c_s) sum_s A_s / c_s for any c_s > 0, whatever the correlation
+  // between the scans (Cauchy-Schwarz); c_s = sqrt(tr A_s) makes the bound's trace the smallest.
+  std::vector<Matrix6d> A;
+  std::vector<double> c;
+  double c_sum = 0.0;
   for (const auto& [insert, H] : r.information_by_insert) {
-    const double weight = H.topLeftCorner<3, 3>().trace();
-    if (insert >= insert_covariance_.size() || weight <= 0.0) continue;
+    if (insert >= insert_covariance_.size()) continue;
     const Matrix6d M = r.constrained_inverse * H;
-    sum += M * insert_covariance_[insert] * M.transpose() / (weight / total);
+    A.push_back(M * insert_covariance_[insert] * M.transpose());
+    c.push_back(std::sqrt(std::max(A.back().trace(), 0.0)));
+    c_sum += c.back();
   }
+  Matrix6d sum = Matrix6d::Zero();
+  for (size_t k = 0; k < A.size(); ++k)
+    if (c[k] > 0.0) sum += c_sum / c[k] * A[k];
   return sum;
 }
 

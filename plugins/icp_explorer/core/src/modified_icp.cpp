@@ -131,7 +131,7 @@ constexpr double kKernelShrink = 0.5;
 constexpr double kNoiseMultiple = 3.0;
 // A model normal with |n_z| at or above this is a floor or a ceiling (trust: structure share).
 constexpr double kLevelSurface = 0.7;
-// The inlier share is taken over structure (walls, furniture) when at least this many points overlap it.
+// The inlier share is taken over structure (walls, furniture), over at least this many points.
 constexpr size_t kMinStructurePoints = 30;
 // Iterates kept for the covariance of a registration that did not converge.
 constexpr size_t kRecentPoses = 5;
@@ -543,12 +543,13 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
   result.counts = final_pass.counts;
   result.beyond_distance = final_pass.beyond_distance;
   result.back_facing = final_pass.back_facing;
-  // The share over structure when there is enough of it, else over every overlapping point.
-  const bool by_structure = final_pass.structure_within_reach >= kMinStructurePoints;
-  result.within_reach = by_structure ? final_pass.structure_within_reach : final_pass.within_reach;
+  // The share over structure (walls, furniture); with fewer than kMinStructurePoints of it
+  // overlapping, over that minimum (a scan whose horizontal fit rests on a handful of points does
+  // not fit).
+  result.within_reach = std::max(final_pass.structure_within_reach, kMinStructurePoints);
   result.rms_error = final_pass.weight_sum > 0.0 ? std::sqrt(final_pass.squared_error / final_pass.weight_sum) : 0.0;
   result.inliers = final_pass.inliers;
-  const size_t share_inliers = by_structure ? final_pass.structure_inliers : final_pass.inliers;
+  const size_t share_inliers = final_pass.structure_inliers;
   result.inlier_share =
       result.within_reach > 0 ? static_cast<double>(share_inliers) / static_cast<double>(result.within_reach) : 0.0;
   result.inlier_rms =
@@ -564,11 +565,13 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
       const Vector6d u = local.U.col(i);
       if (i >= local.degenerate) {
         inverse_local += u * u.transpose() / local.lambda(i);
-        // Barely constrained (share below twice the threshold): the prior's variance is kept in
-        // part, falling linearly from all of it at the threshold to none at twice it.
-        const double t = settings.degeneracy.min_constraint_share;
+        // Barely constrained (share below confident_constraint_share): the data moved the pose,
+        // but the prior's variance is kept in part, falling linearly from all of it at
+        // min_constraint_share to none at confident_constraint_share.
+        const double low = settings.degeneracy.min_constraint_share;
+        const double high = std::max(settings.degeneracy.confident_constraint_share, low);
         const double share = local.shares(local.order_index(i));
-        if (t > 0.0 && share < 2.0 * t) prior_local += std::sqrt((2.0 * t - share) / t) * u * u.transpose();
+        if (share < high && high > low) prior_local += std::sqrt((high - share) / (high - low)) * u * u.transpose();
       } else {
         degenerate_local += u * u.transpose();
         prior_local += u * u.transpose();

@@ -37,9 +37,13 @@ enum class IcpMetric { kPointToPlane, kPointToPoint };
 // of the pairs' total kernel weight from pairs constraining it strongly is poorly constrained:
 // the registration does not move the pose along it (the odometry prior holds it) and reports the
 // prior's uncertainty there.
+// Between min_constraint_share and confident_constraint_share a direction is barely
+// constrained: the data move the pose along it, but its reported variance keeps part of the
+// prior's (all of it at the lower bound, none at the upper).
 struct DegeneracySettings {
   bool hold_to_prior = true;
-  double min_constraint_share = 0.01;
+  double min_constraint_share = 0.003;
+  double confident_constraint_share = 0.01;
 };
 
 // When a registration is trustworthy (RegistrationResult::converged, the localization state).

@@ -9,8 +9,9 @@
 // taken as a uniform error: sigma = bound / sqrt(3)). After registration, the covariance is
 //   the registration's own (sigma^2 H^+ on the well-constrained directions)
 // + the model's: the scans whose voxels the correspondences used carry their own covariance into
-//   this pose (bounded for any correlation between them, Cauchy-Schwarz: sum_s M_s S_s M_s^T / pi_s,
-//   M_s = H^+ H_s the share of the solution scan s's voxels determine, pi_s their share of the weight)
+//   this pose, A_s = M_s S_s M_s^T with M_s = H^+ H_s (the part of the solution scan s's voxels
+//   determine), summed as (sum_s c_s) sum_s A_s / c_s, c_s = sqrt(tr A_s): a bound for any
+//   correlation between the scans (Cauchy-Schwarz), tight when one scan dominates
 // + the prior's, along the poorly constrained directions (held to odometry)
 // + a floor: a tenth of a map voxel of RMS point motion in every direction (the model's resolution).
 // States (and the map): converged (RegistrationResult::converged) -> tracking; fits but not

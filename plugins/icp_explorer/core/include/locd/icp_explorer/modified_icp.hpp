@@ -63,8 +63,8 @@ struct RegistrationResult {
   double kernel_scale = 0.0;                   // m, the final kernel scale (kernel_scale, or 3 x the residuals' robust sigma)
   // Data points overlapping the model (TrustSettings::overlap_distance) and, of them, inliers
   // (accepted, residual within inlier_distance). The share counts only points whose model point is
-  // not on a floor or ceiling (|n_z| < 0.7), when at least 30 are: a floor fits whatever the
-  // horizontal error.
+  // not on a floor or ceiling (|n_z| < 0.7; a floor fits whatever the horizontal error), over at
+  // least 30 of them (within_reach: that count or 30).
   size_t within_reach = 0;
   size_t inliers = 0;                          // all overlapping points
   double inlier_share = 0.0;
