@@ -13,6 +13,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "locd/emoi_markov/belief_assessment.hpp"
 #include "locd/emoi_markov/emoi.hpp"
 #include "locd/emoi_markov/local_elevation_map.hpp"
 #include "locd/emoi_markov/markov_grid.hpp"
@@ -159,9 +160,10 @@ LocalElevationMap driven_local_map(const ElevationMap& dsm, int row, int col) {
 // concentrated (N(truth, 1 m)) so the odometry-distortion hypotheses run on its support, each
 // rebuilding the robot's patch from the local map, and the sparse sensor model is used (no
 // whole-map DFT match); otherwise the belief is uniform (global) and the DFT match runs.
-void masked_update(benchmark::State& state, bool with_motion, int distortion_nodes, double shape_sigma_m = 0.2) {
+void masked_update(benchmark::State& state, bool with_motion, int distortion_nodes,
+                   double shape_sigma_m = SensorModelConfig{}.shape_sigma_m) {
   const ElevationMap& dsm = world_dsm();
-  static const MaskedEmoiMatcher matcher(dsm, {5.0, 10.0, 15.0}, 0.5);
+  static const MaskedEmoiMatcher matcher(dsm, {5.0, 10.0, 15.0}, 0.5, SensorModelConfig{}.shape_edge_step_m);
   const int row = 1000, col = 1000;
   static const LocalElevationMap local_map = driven_local_map(dsm, row, col);
   MarkovGrid grid(dsm.geometry, cv::Mat_<uchar>(dsm.elevation.size(), uchar(1)));
@@ -212,6 +214,9 @@ void masked_update(benchmark::State& state, bool with_motion, int distortion_nod
     if (with_motion) {
       auto summary = grid.summary();
       benchmark::DoNotOptimize(summary);
+      // The localization state and the estimate (belief_assessment.hpp), after every update.
+      auto assessment = assess_belief(grid.belief(), grid.occupied(), grid.geometry(), AssessmentConfig{});
+      benchmark::DoNotOptimize(assessment);
     }
   }
   state.counters["cells"] = static_cast<double>(dsm.geometry.size());
@@ -234,6 +239,20 @@ BENCHMARK(BM_MarkovUpdateWithDistortion)->Unit(benchmark::kMillisecond);
 // The same without the shape term (shape_sigma_m: 0): what the term costs.
 void BM_MarkovUpdateWithDistortionEmoiOnly(benchmark::State& state) { masked_update(state, true, 5, 0.0); }
 BENCHMARK(BM_MarkovUpdateWithDistortionEmoiOnly)->Unit(benchmark::kMillisecond);
+
+// The localization state alone (modes, entropy, peak mass and the estimate) on a uniform belief
+// (2000 x 2000 cells: the first updates) and on a concentrated one (N(x, 1 m)).
+void BM_BeliefAssessment(benchmark::State& state) {
+  const ElevationMap& dsm = world_dsm();
+  MarkovGrid grid(dsm.geometry, cv::Mat_<uchar>(dsm.elevation.size(), uchar(1)));
+  if (state.range(0) == 1) grid.set_gaussian(dsm.geometry.center_of(1000, 1000), 1.0);
+  for (auto _ : state) {
+    auto assessment = assess_belief(grid.belief(), grid.occupied(), grid.geometry(), AssessmentConfig{});
+    benchmark::DoNotOptimize(assessment);
+  }
+  state.SetLabel(state.range(0) == 1 ? "concentrated" : "uniform");
+}
+BENCHMARK(BM_BeliefAssessment)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

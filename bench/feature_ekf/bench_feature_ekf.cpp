@@ -1,12 +1,18 @@
 // feature_ekf speed on one core: 361-beam scans (180 deg at 0.5 deg, 1 cm noise) ray-cast in the
 // corridor world config/maps/corridor.yaml from 40 poses around its loop. Extraction, association
-// + update, and the two together are timed separately; items/s = scans/s.
+// + update, and the two together are timed separately; items/s = scans/s. Then what the plugin
+// adds (issue 15): the scan's agreement with the map, the whole monitored update as the plugin
+// runs it while tracking, and one scan of the global search while lost (new hypotheses from line
+// pairs, or tracking the hypotheses already made).
 #include <benchmark/benchmark.h>
 
 #include <memory>
 #include <random>
 
 #include "locd/feature_ekf/feature_ekf_filter.hpp"
+#include "locd/feature_ekf/global_search.hpp"
+#include "locd/feature_ekf/relocalizing_feature_ekf.hpp"
+#include "locd/feature_ekf/scan_agreement.hpp"
 #include "locd/sim/laser_scanner.hpp"
 
 using namespace locd;
@@ -107,9 +113,71 @@ void BM_ScanUpdate(benchmark::State& state) {
   state.counters["error_after_update_m"] = error_sum / state.iterations();
 }
 
+void BM_ScanAgreement(benchmark::State& state) {
+  const Corridor& world = corridor();
+  const ScanAgreement agreement(ScanAgreementConfig{}, world.map);
+  size_t i = 0;
+  double sum = 0.0;
+  for (auto _ : state) {
+    const size_t k = i++ % world.scans.size();
+    sum += agreement.agreement(world.scans[k], world.poses[k]).value_or(0.0);
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["agreement"] = sum / state.iterations();
+}
+
+// What the plugin runs per scan while tracking: the update, the agreement, the state.
+void BM_MonitoredScanUpdate(benchmark::State& state) {
+  const Corridor& world = corridor();
+  RelocalizingFeatureEkf filter(FeatureEkfConfig{}, world.map);
+  size_t i = 0, tracking = 0;
+  for (auto _ : state) {
+    const size_t k = i++ % world.scans.size();
+    const Pose2& truth = world.poses[k];
+    filter.set_pose({truth.x + 0.03, truth.y - 0.02, truth.theta + 0.01},
+                    Eigen::Vector3d(0.05 * 0.05, 0.05 * 0.05, 0.02 * 0.02).asDiagonal());
+    const ScanOutcome outcome = filter.update(world.scans[k]);
+    tracking += outcome.localization.state == LocalizationState::kTracking;
+    benchmark::DoNotOptimize(outcome);
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["tracking_share"] = static_cast<double>(tracking) / state.iterations();
+}
+
+// One scan while lost: arg 1 = a generation (line pairs, cast, the best join), 0 = the tracked
+// hypotheses of the previous generation corrected and cast again.
+void BM_GlobalSearchScan(benchmark::State& state) {
+  const Corridor& world = corridor();
+  const FeatureEkfConfig config;
+  const FeatureEkfFilter filter(config, world.map);
+  const ScanAgreement agreement(config.agreement, filter.map());
+  GlobalFeatureSearch search(config.global_search, filter, agreement);
+  const bool generate = state.range(0) == 1;
+  size_t i = 0, tracked = 0;
+  for (auto _ : state) {
+    const size_t k = i++ % world.scans.size();
+    if (generate) {
+      search.reset();
+    } else {
+      state.PauseTiming();
+      search.reset();
+      search.update(world.features[k], world.scans[k], true);
+      state.ResumeTiming();
+    }
+    const GlobalSearchResult result = search.update(world.features[k], world.scans[k], generate);
+    tracked += result.tracked.size();
+    benchmark::DoNotOptimize(result);
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["hypotheses"] = static_cast<double>(tracked) / state.iterations();
+}
+
 }  // namespace
 
 BENCHMARK(BM_Extraction);
 BENCHMARK(BM_AssociationAndUpdate);
 BENCHMARK(BM_ScanUpdate);
+BENCHMARK(BM_ScanAgreement);
+BENCHMARK(BM_MonitoredScanUpdate);
+BENCHMARK(BM_GlobalSearchScan)->Arg(1)->Arg(0);
 BENCHMARK_MAIN();

@@ -22,6 +22,7 @@ struct RegistrationPair {
   sim::IndoorWorld world;
   sim::Scanner3D scanner;
   icp_explorer::VoxelMap model;
+  icp_explorer::VoxelMap coarse_model;   // the same scans at the coarse stage's voxel size
   PointCloud scan;                       // the new scan, sensor frame
   Eigen::Isometry3d truth;               // its base_link pose in the map
   Eigen::Isometry3d initial;             // odometry prediction
@@ -32,6 +33,7 @@ inline RegistrationPair make_pair(double map_voxel_size = 0.1, double translatio
   RegistrationPair pair{sim::IndoorWorld::load(source_dir() + "/config/maps/four_rooms_3d.yaml"),
                         sim::Scanner3D(sim::Scanner3DConfig{}),
                         icp_explorer::VoxelMap(map_voxel_size),
+                        icp_explorer::VoxelMap(icp_explorer::CoarseStageSettings{}.voxel_size),
                         {},
                         {},
                         {}};
@@ -39,9 +41,10 @@ inline RegistrationPair make_pair(double map_voxel_size = 0.1, double translatio
   for (const Pose2& stop : {Pose2(4.0, 2.5, 0.2), Pose2(4.0, 6.0, -0.4)}) {
     const Eigen::Isometry3d T = stop.to_isometry();
     const auto s = pair.scanner.scan(pair.world, T, 0.0, 0, rng);
-    pair.model.insert(icp_explorer::voxel_downsample(s.cloud.points, s.cloud.intensity, map_voxel_size,
-                                                     T * s.cloud.sensor_pose),
-                      (T * s.cloud.sensor_pose).translation());
+    const auto dense = icp_explorer::voxel_downsample(s.cloud.points, s.cloud.intensity, map_voxel_size,
+                                                      T * s.cloud.sensor_pose);
+    pair.model.insert(dense, (T * s.cloud.sensor_pose).translation());
+    pair.coarse_model.insert(dense, (T * s.cloud.sensor_pose).translation());
   }
   pair.truth = Pose2(5.5, 4.5, 0.6).to_isometry();
   const auto s = pair.scanner.scan(pair.world, pair.truth, 20.0, 1, rng);

@@ -53,24 +53,26 @@ void BM_ModifiedIcp(benchmark::State& state, bool rules_on, ie::IcpMetric metric
   size_t points = 0;
   for (auto _ : state) {
     const ie::ScanPoints source = ie::voxel_downsample(p.scan.points, p.scan.intensity, 0.3, p.scan.sensor_pose);
-    result = ie::register_scan(source, p.model, p.initial, rejector, settings);
+    result = ie::register_coarse_to_fine(source, p.model, &p.coarse_model, p.initial, rejector, settings);
     points = source.size();
     benchmark::DoNotOptimize(result);
   }
-  report(state, result.T_map_base, result.iterations, static_cast<double>(points));
+  report(state, result.T_map_base, result.iterations + result.coarse_iterations, static_cast<double>(points));
+  state.counters["converged"] = result.converged;
   state.counters["scan_points"] = static_cast<double>(p.scan.points.size());
   state.counters["model_points"] = static_cast<double>(p.model.size());
 }
 
-// Rules on versus off over many starts: the same pair registered from 72 odometry predictions
+// Rules on versus off (and the coarse stage on versus off) over many starts: the same pair registered from 72 odometry predictions
 // spread over the bounds (0.2, 0.35 and 0.5 m in six directions, yaw off by +-5 and +-10 deg),
 // the rejector built around each prediction as in the plugin. Counters: share of registrations
 // within 2 cm and 0.2 deg, mean iterations, mean CPU ms per registration (downsampling
 // included), worst error.
-void BM_RulesSweep(benchmark::State& state, bool rules_on, ie::IcpMetric metric) {
+void BM_RulesSweep(benchmark::State& state, bool rules_on, ie::IcpMetric metric, bool coarse_stage = true) {
   const RegistrationPair& p = pair();
   ie::IcpSettings settings;
   settings.metric = metric;
+  settings.coarse.enabled = coarse_stage;
   std::vector<Eigen::Isometry3d> starts;
   for (double t : {0.2, 0.35, 0.5})
     for (int a = 0; a < 6; ++a)
@@ -78,19 +80,22 @@ void BM_RulesSweep(benchmark::State& state, bool rules_on, ie::IcpMetric metric)
         starts.push_back(p.truth * locd::Pose2(t * std::cos(a * M_PI / 3 + 0.3), t * std::sin(a * M_PI / 3 + 0.3),
                                                yaw_deg * M_PI / 180)
                                        .to_isometry());
-  double successes = 0, iterations = 0, cpu_ms = 0, worst_cm = 0, worst_deg = 0;
+  double successes = 0, iterations = 0, cpu_ms = 0, worst_cm = 0, worst_deg = 0, claimed = 0, claimed_wrongly = 0;
   for (auto _ : state) {
-    successes = iterations = cpu_ms = worst_cm = worst_deg = 0;
+    successes = iterations = cpu_ms = worst_cm = worst_deg = claimed = claimed_wrongly = 0;
     for (const Eigen::Isometry3d& start : starts) {
       const double begin = thread_cpu_ms();
       const ie::CorrespondenceRejector rejector(rules(rules_on), ie::OdometryErrorBound{}, start, p.scan.sensor_pose);
       const ie::ScanPoints source = ie::voxel_downsample(p.scan.points, p.scan.intensity, 0.3, p.scan.sensor_pose);
-      const ie::RegistrationResult r = ie::register_scan(source, p.model, start, rejector, settings);
+      const ie::RegistrationResult r = ie::register_coarse_to_fine(source, p.model, &p.coarse_model, start, rejector, settings);
       cpu_ms += thread_cpu_ms() - begin;
       const double cm = 100.0 * locd::bench::translation_error(r.T_map_base, p.truth);
       const double deg = locd::bench::rotation_error_deg(r.T_map_base, p.truth);
-      successes += cm <= 2.0 && deg <= 0.2;
-      iterations += r.iterations;
+      const bool success = cm <= 2.0 && deg <= 0.2;
+      successes += success;
+      claimed += r.converged;
+      claimed_wrongly += r.converged && !success;
+      iterations += r.iterations + r.coarse_iterations;
       worst_cm = std::max(worst_cm, cm);
       worst_deg = std::max(worst_deg, deg);
     }
@@ -102,6 +107,8 @@ void BM_RulesSweep(benchmark::State& state, bool rules_on, ie::IcpMetric metric)
   state.counters["cpu_ms_per_registration"] = cpu_ms / n;
   state.counters["worst_error_cm"] = worst_cm;
   state.counters["worst_error_deg"] = worst_deg;
+  state.counters["says_converged"] = claimed;
+  state.counters["says_converged_wrongly"] = claimed_wrongly;
 }
 
 pcl::PointCloud<pcl::PointXYZ>::Ptr to_pcl(const std::vector<Eigen::Vector3d>& points) {
@@ -146,6 +153,7 @@ BENCHMARK_CAPTURE(BM_ModifiedIcp, rules_off_point_to_plane, false, ie::IcpMetric
 BENCHMARK_CAPTURE(BM_ModifiedIcp, rules_on_point_to_point, true, ie::IcpMetric::kPointToPoint)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_ModifiedIcp, rules_off_point_to_point, false, ie::IcpMetric::kPointToPoint)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_RulesSweep, rules_on_point_to_plane, true, ie::IcpMetric::kPointToPlane)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK_CAPTURE(BM_RulesSweep, rules_on_point_to_plane_one_resolution, true, ie::IcpMetric::kPointToPlane, false)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK_CAPTURE(BM_RulesSweep, rules_off_point_to_plane, false, ie::IcpMetric::kPointToPlane)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK_CAPTURE(BM_RulesSweep, rules_on_point_to_point, true, ie::IcpMetric::kPointToPoint)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK_CAPTURE(BM_RulesSweep, rules_off_point_to_point, false, ie::IcpMetric::kPointToPoint)->Unit(benchmark::kSecond)->Iterations(1);

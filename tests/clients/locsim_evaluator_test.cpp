@@ -5,6 +5,16 @@
 using locd::Pose2;
 using locd::sim::TrajectoryEvaluator;
 
+namespace {
+// An estimate at `pose` with a unit covariance.
+locd::PoseEstimate at(const Pose2& pose) {
+  locd::PoseEstimate e;
+  e.pose = pose.to_isometry();
+  return e;
+}
+constexpr auto kUnknown = locd::LocalizationState::kUnknown;
+}  // namespace
+
 TEST(Percentile, LinearInterpolationBetweenRanks) {
   EXPECT_DOUBLE_EQ(locd::sim::percentile({1, 2, 3, 4, 5}, 50), 3.0);
   EXPECT_DOUBLE_EQ(locd::sim::percentile({5, 1, 4, 2, 3}, 95), 4.8);
@@ -21,7 +31,7 @@ TEST(TrajectoryEvaluator, KnownSequence) {
     // Error along a 3-4-5 direction so both coordinates matter; heading 0.1 rad off.
     const Pose2 truth(i, 2.0, 3.1);
     const Pose2 estimate(i + 0.6 * errors[i], 2.0 - 0.8 * errors[i], 3.1 + 0.1);
-    evaluator.add(i * 1.0, estimate, truth, update_ms[i], 2.0 * update_ms[i]);
+    evaluator.add(i * 1.0, at(estimate), truth, kUnknown, update_ms[i], 2.0 * update_ms[i]);
   }
   const auto s = evaluator.summary();
   EXPECT_EQ(s.updates, 5u);
@@ -43,8 +53,8 @@ TEST(TrajectoryEvaluator, KnownSequence) {
 
 TEST(TrajectoryEvaluator, NotConvergedWhenTheLastErrorIsLarge) {
   TrajectoryEvaluator evaluator(0.2);
-  evaluator.add(0, {0.05, 0, 0}, {0, 0, 0}, 1);
-  evaluator.add(1, {1.25, 0, 0}, {1, 0, 0}, 1);
+  evaluator.add(0, at({0.05, 0, 0}), {0, 0, 0}, kUnknown, 1);
+  evaluator.add(1, at({1.25, 0, 0}), {1, 0, 0}, kUnknown, 1);
   const auto s = evaluator.summary();
   EXPECT_FALSE(s.converged);
   EXPECT_FALSE(s.convergence_time_s);
@@ -53,8 +63,8 @@ TEST(TrajectoryEvaluator, NotConvergedWhenTheLastErrorIsLarge) {
 
 TEST(TrajectoryEvaluator, ConvergedFromTheFirstEstimate) {
   TrajectoryEvaluator evaluator(0.2);
-  evaluator.add(0.5, {0.05, 0, 0}, {0, 0, 0}, 1);
-  evaluator.add(1.0, {1.1, 0, 0}, {1, 0, 0}, 1);
+  evaluator.add(0.5, at({0.05, 0, 0}), {0, 0, 0}, kUnknown, 1);
+  evaluator.add(1.0, at({1.1, 0, 0}), {1, 0, 0}, kUnknown, 1);
   const auto s = evaluator.summary();
   EXPECT_TRUE(s.converged);
   EXPECT_DOUBLE_EQ(*s.convergence_time_s, 0.5);

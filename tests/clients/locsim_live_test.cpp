@@ -1,6 +1,7 @@
 // locsim live as people run it: the real locsim binary against the real locd over loopback DDS,
 // both as child processes (feature_ekf on the corridor; icp_explorer's exploration mission, which
-// drives the robot to the goals the server publishes); and locsim live with no server.
+// drives the robot to the goals the server publishes); the localization state read from the
+// server's status around a kidnap; and locsim live with no server.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -20,6 +21,7 @@ namespace {
 constexpr uint32_t kDomainLive = 30;
 constexpr uint32_t kDomainNoServer = 31;
 constexpr uint32_t kDomainExploration = 32;
+constexpr uint32_t kDomainKidnap = 180;
 
 std::string binary(const std::string& name) { return locd::sim::test::binary_dir() + "/bin/" + name; }
 
@@ -133,5 +135,34 @@ TEST(LocsimRun, BadArgumentsAndJsonOutput) {
     }
     EXPECT_NEAR(json_number(out, "updates"), 126, 1);  // 25 Hz scans over 5 s, both ends
   }
+  fs::remove_all(dir);
+}
+
+// The state comes from locd/session_status: feature_ekf says tracking, then lost within a second of
+// the kidnap; locsim attributes each status to the poses it arrived with and scores it.
+TEST(LocsimLive, KidnapIsReportedOnTheStatus) {
+  const fs::path dir = scratch("locsim_live_kidnap_");
+  const std::string source = locd::sim::test::source_dir();
+  const fs::path server_config = dir / "locd.yaml";
+  std::ofstream(server_config) << "domain_id: " << kDomainKidnap << "\nplugin_directories: ["
+                               << locd::sim::test::plugin_dir() << "]\nmap_directories: [" << source << "/config/maps]\n";
+  locd::test::ChildProcess server(binary("locd"), {"--config", server_config.string()}, (dir / "locd.log").string());
+  locd::test::ChildProcess sim(binary("locsim"),
+                               {"live", source + "/config/scenarios/corridor.yaml", "--domain", std::to_string(kDomainKidnap),
+                                "--duration", "12", "--rate", "2", "--kidnap-at", "4", "--json", "--server-timeout", "20"},
+                               (dir / "locsim.log").string());
+  const int code = sim.wait(90s);
+  const std::string output = sim.output();
+  ASSERT_EQ(code, 0) << output << "\nserver log:\n" << server.output();
+  EXPECT_NE(output.find("\"event\":\"kidnap\""), std::string::npos) << output;
+  const double delay = json_number(output, "detection_delay_s");
+  EXPECT_GE(delay, 0.0) << output;
+  EXPECT_LT(delay, 5.0) << output;
+  EXPECT_GT(json_number(output, "tracking_share"), 0.3) << output;
+  EXPECT_GT(json_number(output, "lost_share"), 0.0) << output;
+  // The server logged the change of state with its criterion.
+  EXPECT_NE(server.output().find("localization lost"), std::string::npos) << server.output();
+  server.signal(SIGINT);
+  EXPECT_EQ(server.wait(20s), 0) << server.output();
   fs::remove_all(dir);
 }

@@ -121,3 +121,77 @@ TEST_F(ScenarioFiles, SimulationStreamsInStampOrderAtTheConfiguredRates) {
   EXPECT_NEAR(initial.pose.translation().x(), 3.1, 1e-12);
   EXPECT_NEAR(initial.covariance(0, 0), 0.25, 1e-12);
 }
+
+// A kidnap moves the truth (and so what the laser sees) but not the odometry.
+TEST_F(ScenarioFiles, KidnapCarriesTheRobotUnseenByItsOdometry) {
+  const auto s = parse_scenario(scenario("", "kidnap: {at_s: 2, min_distance_m: 10}\n"), "test.yaml", root_ / "scenarios");
+  ASSERT_TRUE(s.kidnap);
+  locd::sim::Simulation simulation(s, s.seed, 4.0);
+  const auto event = simulation.event();
+  ASSERT_TRUE(event);
+  EXPECT_EQ(event->kind, "kidnap");
+  EXPECT_DOUBLE_EQ(event->t, 2.0);
+  EXPECT_GE(event->distance_m, 10.0);
+  // The truth jumps once, by the event's distance; the odometry steps stay about 2 cm (<= 1 m/s at 50 Hz).
+  const auto& samples = simulation.truth().samples();
+  int jumps = 0;
+  for (size_t i = 1; i < samples.size(); ++i) {
+    const double step = std::hypot(samples[i].pose.x - samples[i - 1].pose.x, samples[i].pose.y - samples[i - 1].pose.y);
+    if (step > 1.0) {
+      ++jumps;
+      EXPECT_NEAR(samples[i].t, 2.0, 1e-9);
+      EXPECT_NEAR(step, event->distance_m, 1e-9);
+    }
+  }
+  EXPECT_EQ(jumps, 1);
+  std::optional<locd::Pose2> last;
+  double longest_step = 0.0;
+  while (auto m = simulation.next()) {
+    const auto* odometry = std::get_if<locd::Odometry>(&m->measurement);
+    if (!odometry) continue;
+    const auto pose = locd::Pose2::from_isometry(odometry->pose);
+    if (last) longest_step = std::max(longest_step, std::hypot(pose.x - last->x, pose.y - last->y));
+    last = pose;
+  }
+  EXPECT_GT(longest_step, 0.005);
+  EXPECT_LT(longest_step, 0.05);
+  // Another seed, another destination; the same seed, the same one.
+  EXPECT_NE(locd::sim::Simulation(s, s.seed + 1, 4.0).event()->distance_m, event->distance_m);
+  EXPECT_EQ(locd::sim::Simulation(s, s.seed, 4.0).event()->distance_m, event->distance_m);
+}
+
+TEST_F(ScenarioFiles, WrongStartGivesAPoseOnTheRouteFarOff) {
+  std::string text = scenario();
+  text.replace(text.find("initial_pose_offset: [0.1, 0, 0]"), 32, "wrong_start: {min_distance_m: 15}");
+  const auto s = parse_scenario(text, "test.yaml", root_ / "scenarios");
+  for (uint64_t seed = 1; seed <= 20; ++seed) {
+    locd::sim::Simulation simulation(s, seed, 1.0);
+    const auto start = simulation.truth().at(0.0).pose;
+    const auto given = locd::Pose2::from_isometry(simulation.initial_pose().pose);
+    ASSERT_TRUE(simulation.event());
+    EXPECT_EQ(simulation.event()->kind, "wrong_start");
+    EXPECT_EQ(simulation.event()->t, 0.0);
+    EXPECT_GE(std::hypot(given.x - start.x, given.y - start.y), 15.0);
+    EXPECT_NEAR(given.y, 1.0, 1e-9);                              // on the route [[1, 1], [39, 1]]
+    EXPECT_NEAR(std::sin(given.theta), 0.0, 1e-6);  // heading along it (the loop goes out and back)
+    EXPECT_NEAR(simulation.initial_pose().covariance(0, 0), 0.25, 1e-12);  // the configured stddev
+  }
+}
+
+TEST_F(ScenarioFiles, KidnapAndWrongStartErrorsNameTheKey) {
+  EXPECT_NE(error_of(scenario("", "kidnap: {at_s: 9}\n")).find("'kidnap.at_s'"), std::string::npos);
+  EXPECT_NE(error_of(scenario("", "kidnap: {min_distance_m: 9}\n")).find("'kidnap.at_s'"), std::string::npos);
+  EXPECT_NE(error_of(scenario("", "kidnap: {at_s: 1, min_distance_m: 60}\n")).find("kidnap.min_distance_m"),
+            std::string::npos);
+  EXPECT_NE(error_of(scenario("", "kidnap: {at_s: 1, to: [1, 2]}\n")).find("'kidnap.to'"), std::string::npos);
+  EXPECT_NE(error_of(scenario("", "kidnap: {at_s: 1, to: [1, 2, 0], min_distance_m: 3}\n")).find("exclude"),
+            std::string::npos);
+  std::string text = scenario();
+  text.replace(text.find("initial_pose_offset: [0.1, 0, 0]"), 32, "wrong_start: {min_distance_m: 15}");
+  EXPECT_EQ(error_of(text), "");
+  EXPECT_NE(error_of(text + "  initial_pose_offset: [1, 0, 0]\n").find("exclude"), std::string::npos);
+  const std::string both = scenario("", "kidnap: {at_s: 1}\n");
+  text = both;
+  text.replace(text.find("initial_pose_offset: [0.1, 0, 0]"), 32, "wrong_start: {min_distance_m: 15}");
+  EXPECT_NE(error_of(text).find("exclude"), std::string::npos) << error_of(text);
+}

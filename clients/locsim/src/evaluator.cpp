@@ -16,18 +16,23 @@ double percentile(std::vector<double> values, double p) {
   return values[lo] + (rank - static_cast<double>(lo)) * (values[hi] - values[lo]);
 }
 
-TrajectoryEvaluator::TrajectoryEvaluator(double convergence_threshold_m) : threshold_(convergence_threshold_m) {
+TrajectoryEvaluator::TrajectoryEvaluator(double convergence_threshold_m, std::optional<double> event_s)
+    : threshold_(convergence_threshold_m), event_s_(event_s) {
   if (!(convergence_threshold_m > 0)) throw std::invalid_argument("convergence threshold must be positive");
 }
 
-const ScoredEstimate& TrajectoryEvaluator::add(double t, const Pose2& estimate, const Pose2& truth, double update_ms,
+const ScoredEstimate& TrajectoryEvaluator::add(double t, const PoseEstimate& estimate, const Pose2& truth,
+                                               LocalizationState state, double update_ms,
                                                std::optional<double> latency_ms) {
   ScoredEstimate s;
   s.t = t;
-  s.estimate = estimate;
+  s.estimate = Pose2::from_isometry(estimate.pose);
   s.truth = truth;
-  s.position_error_m = std::hypot(estimate.x - truth.x, estimate.y - truth.y);
-  s.heading_error_rad = std::abs(normalize_angle(estimate.theta - truth.theta));
+  s.position_error_m = std::hypot(s.estimate.x - truth.x, s.estimate.y - truth.y);
+  s.heading_error_rad = std::abs(normalize_angle(s.estimate.theta - truth.theta));
+  s.covariance = planar_covariance(estimate.covariance);
+  s.nees = nees(s.estimate, truth, s.covariance);
+  s.state = state;
   s.update_ms = update_ms;
   s.latency_ms = latency_ms;
   estimates_.push_back(s);
@@ -37,10 +42,15 @@ const ScoredEstimate& TrajectoryEvaluator::add(double t, const Pose2& estimate, 
 EvaluationSummary TrajectoryEvaluator::summary() const {
   EvaluationSummary out;
   out.updates = estimates_.size();
+  out.localization.event_s = event_s_;
   if (estimates_.empty()) return out;
   std::vector<double> errors, update_ms, latency_ms, overhead_ms;
+  std::vector<ConsistencySample> consistency;
+  std::vector<StateSample> states;
   double sum = 0, sum2 = 0, heading = 0;
   for (const auto& e : estimates_) {
+    consistency.push_back({e.nees, e.state});
+    states.push_back({e.t, e.position_error_m, e.state});
     errors.push_back(e.position_error_m);
     update_ms.push_back(e.update_ms);
     sum += e.position_error_m;
@@ -75,6 +85,8 @@ EvaluationSummary TrajectoryEvaluator::summary() const {
     }
   }
   out.converged = first_good < estimates_.size();
+  out.consistency = summarize_consistency(consistency);
+  out.localization = evaluate_states(states, {threshold_, event_s_});
   if (out.converged) out.convergence_time_s = estimates_[first_good].t;
   return out;
 }

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <thread>
@@ -30,6 +31,19 @@ struct Published {
   Pose2 truth;
   int64_t publish_wall_ns = 0;
 };
+
+// The server publishes a pose and then, when the plugin's localization state changed with that
+// update, the status: a status that arrives within this much after a pose is that pose's.
+constexpr int64_t kStatusLagNs = 5'000'000;
+// Poses received less than this ago wait for the next scoring (their status may be on its way).
+constexpr int64_t kScoringHoldNs = 100'000'000;
+
+LocalizationState state_named(const std::string& name) {
+  for (LocalizationState s : {LocalizationState::kTracking, LocalizationState::kUncertain, LocalizationState::kLost}) {
+    if (name == localization_state_name(s)) return s;
+  }
+  return LocalizationState::kUnknown;
+}
 
 }  // namespace
 
@@ -59,10 +73,17 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
 
   std::mutex mutex;
   std::vector<PoseUpdate> received;
+  std::vector<std::pair<int64_t, LocalizationState>> states;  // (received wall ns, state), in arrival order
   auto record = [&](const PoseUpdate& p) {
     std::lock_guard<std::mutex> lock(mutex);
     received.push_back(p);
   };
+  client.on_status(
+      [&](const SessionStatus& st) {
+        std::lock_guard<std::mutex> lock(mutex);
+        states.emplace_back(wall_ns(), state_named(st.localization));
+      },
+      scenario.robot.id);
   std::string config_text = scenario.localizer.config_text;
   std::unique_ptr<LiveRos2Robot> ros2;  // --ros2: scans, odometry and poses over ROS 2 instead
   if (options.ros2_namespace.empty()) {
@@ -106,19 +127,33 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
 
   std::map<int64_t, Published> published;  // by stamp
   std::vector<int64_t> pose_arrivals_ns;    // wall clock, of the poses scored
-  TrajectoryEvaluator evaluator(scenario.convergence_threshold_m);
-  auto score_received = [&]() {
+  const std::optional<SimulatedEvent> event = simulation.event();
+  result.event = event;
+  TrajectoryEvaluator evaluator(scenario.convergence_threshold_m, event ? std::optional<double>(event->t) : std::nullopt);
+  // final_batch: score every pose received; else only those old enough that their status is in.
+  auto score_received = [&](bool final_batch) {
     std::vector<PoseUpdate> batch;
+    std::vector<std::pair<int64_t, LocalizationState>> known_states;
     {
       std::lock_guard<std::mutex> lock(mutex);
-      batch.swap(received);
+      const int64_t hold_from = final_batch ? std::numeric_limits<int64_t>::max() : wall_ns() - kScoringHoldNs;
+      const auto young = std::stable_partition(received.begin(), received.end(),
+                                               [&](const PoseUpdate& p) { return p.received_wall_ns < hold_from; });
+      batch.assign(received.begin(), young);
+      received.erase(received.begin(), young);
+      known_states = states;
     }
     for (const auto& p : batch) {
       const auto it = published.find(p.estimate.header.stamp_ns);
       if (it == published.end()) continue;  // a pose for a stamp this run never published
       const double latency_ms = static_cast<double>(p.received_wall_ns - it->second.publish_wall_ns) * 1e-6;
       pose_arrivals_ns.push_back(p.received_wall_ns);
-      evaluator.add(it->second.t, Pose2::from_isometry(p.estimate.pose), it->second.truth, p.update_ms, latency_ms);
+      LocalizationState state = LocalizationState::kUnknown;
+      for (const auto& [at, s] : known_states) {
+        if (at > p.received_wall_ns + kStatusLagNs) break;
+        state = s;
+      }
+      evaluator.add(it->second.t, p.estimate, it->second.truth, state, p.update_ms, latency_ms);
     }
   };
   auto print_line = [&](double t) {
@@ -162,14 +197,14 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
         },
         m->measurement);
     if (m->t >= next_print) {
-      score_received();
+      score_received(false);
       print_line(m->t);
       next_print += 1.0;
     }
   }
   // Poses still in flight.
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
-  score_received();
+  score_received(true);
 
   // The server's counters for this robot: what it refused and why.
   for (const auto& st : client.statuses()) {

@@ -27,10 +27,11 @@ namespace {
 const char* kUsage =
     "usage:\n"
     "  locsim run SCENARIO.yaml [--json] [--plot FILE.png] [--plugin-dir DIR] [--seed N] [--duration S]\n"
-    "                  [--mcap OUT.mcap] [--rawlog FILE.rawlog]\n"
+    "                  [--mcap OUT.mcap] [--rawlog FILE.rawlog] [--trace FILE.csv]\n"
     "      offline: the scenario straight through the plugin, no DDS; --mcap records the run (sensors,\n"
     "      poses, ground truth) for Foxglove and locsim replay; --rawlog also writes the run as an MRPT\n"
-    "      rawlog (laser scenarios; needs carmen2rawlog from mrpt-apps)\n"
+    "      rawlog (laser scenarios; needs carmen2rawlog from mrpt-apps); --trace: every estimate with its\n"
+    "      covariance, NEES and localization state as CSV\n"
     "  locsim live SCENARIO.yaml [--domain N] [--rate X] [--duration S] [--seed N] [--json] [--plot FILE.png]\n"
     "              [--server-timeout S] [--ros2 NAMESPACE]\n"
     "      real time against a running locd (DDS through CYCLONEDDS_URI); --rate 2 runs twice as fast;\n"
@@ -39,7 +40,9 @@ const char* kUsage =
     "  locsim montecarlo SCENARIO.yaml [--runs N] [--strategies a,b,...] [--json] [--plot FILE.png]\n"
     "                   [--plugin-dir DIR] [--seed N] [--duration S]\n"
     "      a road-sign scenario (feature_ekf landmarks), N seeded drives per association strategy\n"
-    "      (default: known_id, nearest_neighbor, jcbb, pda) side by side: CEP50/CEP95, wrong associations\n"
+    "      (default: known_id, nearest_neighbor, jcbb, pda) side by side: CEP50/CEP95, wrong associations;\n"
+    "      a segment-world scenario (corridor, ceiling hall, grid worlds): seeds N..N+runs-1 (default from 1)\n"
+    "      pooled: consistency, false alarms, kidnap / wrong-start detection and relocalization rates\n"
     "  locsim replay IN.mcap [--domain N] [--rate X | --fast] [--robot R]... [--server-timeout S] [--json]\n"
     "  locsim replay IN.mcap --offline [--plugin-dir DIR] [--map-dir DIR] [--rate X] [--robot R]... [--json]\n"
     "      a recording (locctl record, locsim run --mcap) fed again: into a running locd (default real time),\n"
@@ -50,6 +53,9 @@ const char* kUsage =
     "      N simulated robots (K distinct runs of a laser/odometry scenario, each robot its own id and\n"
     "      clock) against running locd servers: poses per second, latency p50/p99/max, what the servers\n"
     "      lost, dropped or rejected, and with --server-pid the servers' CPU and memory (workers included)\n"
+    "  Segment worlds, run / live / montecarlo: --kidnap-at S [--kidnap-distance M] carries the robot at S\n"
+    "      to a route pose >= M m away (default 10; its odometry does not see it); --wrong-start M starts\n"
+    "      the plugin from a route pose >= M m off. Either replaces the scenario's kidnap / start.\n"
     "  locsim --help\n"
     "Plugin directory for run: --plugin-dir, else $LOCD_PLUGIN_DIR, else <locsim's dir>/../plugins.\n";
 
@@ -102,6 +108,7 @@ fs::path default_plugin_directory() {
 // The options as text, before conversion.
 struct Text {
   std::string scenario, seed, duration, runs, strategies, domain, server_timeout, rate, ros2;
+  std::string kidnap_at, kidnap_distance, wrong_start;
   std::vector<std::string> plugin_directories;
 };
 
@@ -204,12 +211,16 @@ Command parse(const std::vector<std::string>& args) {
   app.add_option("--plot", c.plot_file);
   app.add_option("--seed", text.seed);
   app.add_option("--duration", text.duration);
+  app.add_option("--kidnap-at", text.kidnap_at);
+  app.add_option("--kidnap-distance", text.kidnap_distance);
+  app.add_option("--wrong-start", text.wrong_start);
   if (mode == "run" || mode == "montecarlo") {
     app.add_option("--plugin-dir", text.plugin_directories)->expected(1)->take_all();
   }
   if (mode == "run") {
     app.add_option("--mcap", c.mcap_file);
     app.add_option("--rawlog", c.rawlog_file);
+    app.add_option("--trace", c.trace_file);
   }
   if (mode == "live") {
     app.add_option("--domain", text.domain);
@@ -229,6 +240,11 @@ Command parse(const std::vector<std::string>& args) {
   }
   if (!text.seed.empty()) c.seed = parse_unsigned("--seed", text.seed, std::numeric_limits<long>::max());
   if (!text.duration.empty()) c.duration_s = parse_number("--duration", text.duration, 1e-3, 86400.0);
+  if (!text.kidnap_at.empty()) c.kidnap_at_s = parse_number("--kidnap-at", text.kidnap_at, 0.0, 86400.0);
+  if (!text.kidnap_distance.empty()) {
+    c.kidnap_distance_m = parse_number("--kidnap-distance", text.kidnap_distance, 0.0, 1e5);
+  }
+  if (!text.wrong_start.empty()) c.wrong_start_m = parse_number("--wrong-start", text.wrong_start, 0.0, 1e5);
   if (!text.runs.empty()) c.runs = static_cast<int>(parse_unsigned("--runs", text.runs, 100000));
   if (!text.strategies.empty()) {
     c.strategies.clear();

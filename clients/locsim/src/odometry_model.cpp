@@ -51,7 +51,7 @@ Measurement OdometryModel::measure(const TruthSample& truth, int64_t stamp_ns, s
   o.header.stamp_ns = stamp_ns;
   o.header.frame_id = config_.frame_id;
   if (started_) {
-    const OdometryIncrement reported = noisy(increment_between(last_truth_, truth.pose), rng);
+    const OdometryIncrement reported = noisy(increment_between(last_truth_, truth.driven.value_or(truth.pose)), rng);
     const Pose2 step(reported.distance * std::cos(reported.direction), reported.distance * std::sin(reported.direction),
                      reported.rotation);
     odom_pose_ = odom_pose_ * step;
@@ -62,7 +62,7 @@ Measurement OdometryModel::measure(const TruthSample& truth, int64_t stamp_ns, s
     }
   }
   started_ = true;
-  last_truth_ = truth.pose;
+  last_truth_ = truth.driven.value_or(truth.pose);  // a kidnap moves pose, not what the wheels see
   last_t_ = truth.t;
   o.pose = odom_pose_.to_isometry();
   return o;

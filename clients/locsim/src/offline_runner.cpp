@@ -25,7 +25,9 @@ RunResult run_offline(const Scenario& scenario, const OfflineRunOptions& options
   Simulation simulation(scenario, result.seed, result.duration_s);
   localizer->set_pose(simulation.initial_pose());
   if (options.observer) options.observer->started(simulation.initial_pose());
-  TrajectoryEvaluator evaluator(scenario.convergence_threshold_m);
+  TrajectoryEvaluator evaluator(scenario.convergence_threshold_m, simulation.event() ? std::optional<double>(simulation.event()->t) : std::nullopt);
+  result.event = simulation.event();
+  LocalizationState state = LocalizationState::kUnknown;  // the plugin's last judgement
   while (auto m = simulation.next()) {
     ++result.measurements;
     if (options.observer) options.observer->measurement(m->measurement, simulation.truth().at(m->t).pose);
@@ -42,9 +44,10 @@ RunResult run_offline(const Scenario& scenario, const OfflineRunOptions& options
     const double update_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
     if (options.observer) options.observer->updated(update, update_ms);
+    if (update.localization) state = update.localization->state;
     if (!update.estimate) continue;
     const double t = simulation.time_of(update.estimate->header.stamp_ns);
-    evaluator.add(t, Pose2::from_isometry(update.estimate->pose), simulation.truth().at(t).pose, update_ms);
+    evaluator.add(t, *update.estimate, simulation.truth().at(t).pose, state, update_ms);
   }
   result.summary = evaluator.summary();
   result.estimates = evaluator.estimates();

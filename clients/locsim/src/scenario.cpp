@@ -64,7 +64,7 @@ RobotSpec parse_robot(const Params& p) {
 Scenario parse_scenario(const std::string& text, const std::string& source, const fs::path& base_directory) {
   const Params p = Params::parse(text, source);
   p.expect_only({"name", "seed", "duration_s", "map", "map_directories", "robot", "sensors", "localizer",
-                 "evaluation"});
+                 "evaluation", "kidnap"});
   Scenario s;
   s.file = source;
   s.name = p.required_text("name");
@@ -114,7 +114,7 @@ Scenario parse_scenario(const std::string& text, const std::string& source, cons
 
   if (!p.has("localizer")) p.fail("localizer", "is missing; expected {config_file, initial_pose_offset, initial_stddev}");
   const Params loc = p.child("localizer");
-  loc.expect_only({"config_file", "initial_pose_offset", "initial_stddev"});
+  loc.expect_only({"config_file", "initial_pose_offset", "initial_stddev", "wrong_start"});
   const fs::path config_file(loc.required_text("config_file"));
   s.localizer.config_file = config_file.is_absolute() ? config_file : base_directory / config_file;
   try {
@@ -134,9 +134,35 @@ Scenario parse_scenario(const std::string& text, const std::string& source, cons
   const auto stddev = loc.numbers("initial_stddev", {0.5, 0.5, 0.1}, 3, Range::positive());
   s.localizer.initial_stddev = Eigen::Vector3d(stddev[0], stddev[1], stddev[2]);
 
+  if (loc.has("wrong_start")) {
+    if (loc.has("initial_pose_offset")) {
+      loc.fail("wrong_start", "and initial_pose_offset exclude each other (a wrong start draws the pose the plugin gets)");
+    }
+    const Params wrong = loc.child("wrong_start");
+    wrong.expect_only({"min_distance_m"});
+    s.localizer.wrong_start_min_distance_m = wrong.number("min_distance_m", 10.0, Range{0.0, 1e5, false, true});
+  }
+  if (p.has("kidnap")) {
+    const Params k = p.child("kidnap");
+    k.expect_only({"at_s", "to", "min_distance_m"});
+    KidnapSpec kidnap;
+    if (!k.has("at_s")) k.fail("at_s", "is missing; expected the time of the kidnap in s");
+    kidnap.at_s = k.number("at_s", 0.0, Range{0.0, s.duration_s, false, false});
+    if (k.has("to") && k.has("min_distance_m")) k.fail("to", "and min_distance_m exclude each other");
+    if (k.has("to")) kidnap.to = pose_of(k, "to", {});
+    kidnap.min_distance_m = k.number("min_distance_m", kidnap.min_distance_m, Range{0.0, 1e5, false, true});
+    s.kidnap = kidnap;
+    if (s.localizer.wrong_start_min_distance_m) {
+      k.fail("at_s", "a kidnap and localizer.wrong_start exclude each other (one event per run is scored)");
+    }
+  }
+
   const Params evaluation = p.child("evaluation");
-  evaluation.expect_only({"convergence_threshold_m"});
+  evaluation.expect_only({"convergence_threshold_m", "detection_deadline_s", "relocalization_deadline_s"});
   s.convergence_threshold_m = evaluation.number("convergence_threshold_m", 0.2, Range::positive());
+  s.evaluation.convergence_threshold_m = s.convergence_threshold_m;
+  s.evaluation.detection_deadline_s = evaluation.number("detection_deadline_s", 5.0, Range::positive());
+  s.evaluation.relocalization_deadline_s = evaluation.number("relocalization_deadline_s", 10.0, Range::positive());
   return s;
 }
 

@@ -5,6 +5,7 @@
 #include "live_emoi_markov.hpp"
 #include "live_exploration.hpp"
 #include "run_recording.hpp"
+#include "locd/sim/montecarlo.hpp"
 #include "locd/sim/offline_runner.hpp"
 #include "locd/sim/report.hpp"
 #include "locd/sim/scenario.hpp"
@@ -42,8 +43,41 @@ int road_signs_montecarlo(const Command& c, int runs) {
   return 0;
 }
 
+// The scenario with the command line's kidnap or wrong start in place of its own.
+Scenario segment_scenario(const Command& c) {
+  Scenario scenario = load_scenario(c.scenario_file);
+  const double duration = c.duration_s.value_or(scenario.duration_s);
+  if (c.kidnap_distance_m && !c.kidnap_at_s) throw UsageError("--kidnap-distance needs --kidnap-at");
+  if (c.kidnap_at_s && c.wrong_start_m) throw UsageError("--kidnap-at and --wrong-start exclude each other");
+  if (c.kidnap_at_s) {
+    if (*c.kidnap_at_s >= duration) {
+      throw UsageError("--kidnap-at " + std::to_string(*c.kidnap_at_s) + ": must be before the end of the run (" +
+                       std::to_string(duration) + " s)");
+    }
+    scenario.kidnap = KidnapSpec{*c.kidnap_at_s, std::nullopt, c.kidnap_distance_m.value_or(KidnapSpec{}.min_distance_m)};
+    scenario.localizer.wrong_start_min_distance_m.reset();
+  }
+  if (c.wrong_start_m) {
+    scenario.localizer.wrong_start_min_distance_m = *c.wrong_start_m;
+    scenario.kidnap.reset();
+  }
+  return scenario;
+}
+
+int segment_world_montecarlo(const Command& c) {
+  const Scenario scenario = segment_scenario(c);
+  const OfflineRunOptions options{c.plugin_directories, std::nullopt, c.duration_s, nullptr};
+  const MonteCarloSummary summary = run_seeds(scenario, options, c.runs, c.seed.value_or(1), &log_stream(c));
+  if (c.json) {
+    write_montecarlo_json(std::cout, summary);
+  } else {
+    write_montecarlo_summary(std::cout, summary);
+  }
+  return summary.runs.empty() ? 1 : 0;
+}
+
 int segment_world_run(const Command& c) {
-  const Scenario scenario = load_scenario(c.scenario_file);
+  const Scenario scenario = segment_scenario(c);
   std::unique_ptr<McapRunRecording> recording;
   if (!c.mcap_file.empty()) recording = std::make_unique<McapRunRecording>(c.mcap_file, scenario);
   const RunResult result =
@@ -53,6 +87,10 @@ int segment_world_run(const Command& c) {
     log_stream(c) << "recording: " << c.mcap_file << "\n";
   }
   report_run(result, scenario.map, c.json, c.plot_file);
+  if (!c.trace_file.empty()) {
+    write_trace(c.trace_file, result);
+    log_stream(c) << "trace: " << c.trace_file << "\n";
+  }
   if (!c.rawlog_file.empty()) {
     const grid::RawlogExport e = grid::export_rawlog(scenario, result.seed, result.duration_s, c.rawlog_file);
     log_stream(c) << "rawlog: " << e.rawlog.string() << " (" << e.scans << " scans; truth " << e.truth.string() << ")\n";
@@ -66,7 +104,7 @@ int segment_world_live(const Command& c) {
   live.duration_s = c.duration_s;
   live.json = c.json;
   live.plot_file = c.plot_file;
-  return run_live(load_scenario(c.scenario_file), live);
+  return run_live(segment_scenario(c), live);
 }
 
 }  // namespace
@@ -93,8 +131,7 @@ const std::vector<ScenarioKind>& scenario_kinds() {
        {},
        "locsim montecarlo needs a road-sign scenario (sensors.sign_detector), e.g. config/scenarios/road_signs.yaml"},
       {"segment world (laser, odometry, ceiling camera)", [](const std::filesystem::path&) { return true; },
-       segment_world_run, segment_world_live, {},
-       "locsim montecarlo needs a road-sign scenario (sensors.sign_detector), e.g. config/scenarios/road_signs.yaml"},
+       segment_world_run, segment_world_live, segment_world_montecarlo, ""},
   };
   return kinds;
 }
@@ -108,8 +145,15 @@ const ScenarioKind& kind_of(const std::filesystem::path& scenario_file) {
 
 int run_command(const Command& command) {
   const ScenarioKind& kind = kind_of(command.scenario_file);
+  if (!command.trace_file.empty() && &kind != &scenario_kinds().back()) {
+    throw UsageError("--trace writes segment-world runs (corridor, ceiling hall, grid worlds); not offered for " + kind.name);
+  }
   if (!command.mcap_file.empty() && &kind != &scenario_kinds().back()) {
     throw UsageError("--mcap records segment-world runs (corridor, ceiling hall); not offered for " + kind.name);
+  }
+  if ((command.kidnap_at_s || command.kidnap_distance_m || command.wrong_start_m) && &kind != &scenario_kinds().back()) {
+    throw UsageError("--kidnap-at, --kidnap-distance and --wrong-start apply to segment-world scenarios (corridor, "
+                     "ceiling hall, grid worlds), not to a " + kind.name + " scenario");
   }
   const Runner& runner = command.mode == "run" ? kind.run : command.mode == "live" ? kind.live : kind.montecarlo;
   if (!runner) throw UsageError(kind.not_offered);

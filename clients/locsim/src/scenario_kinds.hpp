@@ -29,12 +29,16 @@ struct Command {
   bool json = false;                                  // one JSON object on stdout
   std::string plot_file;                              // PNG, empty = none
   std::string mcap_file;                              // run: record the run into MCAP, empty = none
+  std::string trace_file;                             // run, live: every estimate as CSV, empty = none
   std::string rawlog_file;                            // run: also export as an MRPT rawlog
   std::optional<uint64_t> seed;                       // overrides the scenario's
   std::optional<double> duration_s;                   // overrides the scenario's
   std::vector<std::filesystem::path> plugin_directories;  // run, montecarlo
   LiveOptions live;                                   // live: domain, rate, server timeout
   int runs = 100;                                     // montecarlo
+  // Segment worlds: a kidnap at kidnap_at_s to a route pose at least kidnap_distance_m away, or a
+  // wrong start at least wrong_start_m off; either replaces the scenario's own kidnap / start.
+  std::optional<double> kidnap_at_s, kidnap_distance_m, wrong_start_m;
   std::vector<std::string> strategies = {"known_id", "nearest_neighbor", "jcbb", "pda"};  // montecarlo
 };
 

@@ -1,5 +1,6 @@
 #include "locd/sim/simulation.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "locd/sim/odometry_model.hpp"
@@ -12,15 +13,54 @@ double truth_sample_period(const Params& sensors) {
   if (sensors.has("odometry")) return 1.0 / OdometryConfig::from_params(sensors.child("odometry")).rate_hz;
   return 0.02;
 }
+
+// The random streams of the kidnap and the wrong start, apart from the sensors' (seed, index).
+constexpr uint64_t kKidnapStream = 1'000'001, kWrongStartStream = 1'000'002;
+
+std::mt19937_64 stream(uint64_t seed, uint64_t which) {
+  std::seed_seq sequence{seed, which};
+  return std::mt19937_64(sequence);
+}
+
+// The truth: with a kidnap, first the drive without it (to know where the robot is at at_s),
+// then the same drive carried to the destination at at_s.
+Trajectory truth_of(const Scenario& scenario, uint64_t seed, double duration_s, std::optional<Pose2>& destination) {
+  const double period = truth_sample_period(scenario.sensors);
+  Trajectory undisturbed = Trajectory::generate(scenario.robot, duration_s, period);
+  if (!scenario.kidnap) return undisturbed;
+  const KidnapSpec& k = *scenario.kidnap;
+  if (k.to) {
+    destination = *k.to;
+  } else {
+    const Pose2 there = undisturbed.at(k.at_s).pose;
+    auto rng = stream(seed, kKidnapStream);
+    destination = random_route_pose(scenario.robot, {there.x, there.y}, k.min_distance_m, rng, "kidnap.min_distance_m");
+  }
+  return Trajectory::generate(scenario.robot, duration_s, period, Teleport{k.at_s, *destination});
+}
 }  // namespace
 
 Simulation::Simulation(const Scenario& scenario, uint64_t seed, double duration_s, int64_t stamp_origin_ns)
-    : initial_pose_offset_(scenario.localizer.initial_pose_offset),
-      initial_stddev_(scenario.localizer.initial_stddev),
+    : initial_stddev_(scenario.localizer.initial_stddev),
       duration_(duration_s),
       origin_ns_(stamp_origin_ns),
       world_(scenario.world ? scenario.world : std::make_shared<SegmentWorld>(SegmentWorld::from_feature_map(scenario.map))),
-      truth_(Trajectory::generate(scenario.robot, duration_s, truth_sample_period(scenario.sensors))) {
+      truth_(truth_of(scenario, seed, duration_s, kidnap_destination_)) {
+  const Pose2 start = truth_.at(0.0).pose;
+  if (scenario.localizer.wrong_start_min_distance_m) {
+    auto rng = stream(seed, kWrongStartStream);
+    initial_pose_ = random_route_pose(scenario.robot, {start.x, start.y}, *scenario.localizer.wrong_start_min_distance_m,
+                                      rng, "localizer.wrong_start.min_distance_m");
+    event_ = SimulatedEvent{"wrong_start", 0.0, std::hypot(initial_pose_.x - start.x, initial_pose_.y - start.y)};
+  } else {
+    const Pose2& offset = scenario.localizer.initial_pose_offset;
+    initial_pose_ = Pose2(start.x + offset.x, start.y + offset.y, normalize_angle(start.theta + offset.theta));
+  }
+  if (scenario.kidnap) {
+    const double at = scenario.kidnap->at_s;
+    const Pose2 before = truth_.at(std::max(at - truth_.sample_period(), 0.0)).pose;
+    event_ = SimulatedEvent{"kidnap", at, std::hypot(kidnap_destination_->x - before.x, kidnap_destination_->y - before.y)};
+  }
   sensors_ = make_sensor_models(scenario.sensors, world_);
   for (size_t i = 0; i < sensors_.size(); ++i) {
     std::seed_seq sequence{seed, static_cast<uint64_t>(i)};
@@ -54,9 +94,7 @@ std::optional<SimulatedMeasurement> Simulation::next() {
 }
 
 PoseEstimate Simulation::initial_pose() const {
-  const Pose2 start = truth_.at(0.0).pose;
-  const Pose2& offset = initial_pose_offset_;
-  const Pose2 given(start.x + offset.x, start.y + offset.y, normalize_angle(start.theta + offset.theta));
+  const Pose2& given = initial_pose_;
   PoseEstimate p;
   p.header.stamp_ns = stamp_of(0.0);
   p.header.frame_id = "map";

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "locd/sdk/errors.hpp"
+
 namespace locd::sim {
 
 WaypointPath::WaypointPath(std::vector<Eigen::Vector2d> waypoints, bool loop)
@@ -59,18 +61,60 @@ double WaypointPath::project(const Eigen::Vector2d& p, double s_from, double s_t
   return best_s;
 }
 
-Trajectory Trajectory::generate(const RobotSpec& robot, double duration_s, double sample_period_s) {
+double WaypointPath::heading_at(double s) const {
+  constexpr double kStep = 1e-3;  // m: the direction of the chord around s
+  const Eigen::Vector2d d = point_at(s + kStep) - point_at(s - kStep);
+  if (d.squaredNorm() > 0.0) return std::atan2(d.y(), d.x());
+  const Eigen::Vector2d ahead = point_at(s + kStep) - point_at(s);  // the end of an open path
+  const Eigen::Vector2d behind = point_at(s) - point_at(s - kStep);
+  const Eigen::Vector2d e = ahead.squaredNorm() > 0.0 ? ahead : behind;
+  return std::atan2(e.y(), e.x());
+}
+
+Pose2 random_route_pose(const RobotSpec& robot, const Eigen::Vector2d& away_from, double min_distance_m,
+                        std::mt19937_64& rng, const std::string& what) {
+  const WaypointPath path(robot.waypoints, robot.loop);
+  // Arc-length intervals of the route far enough, at a 1 cm resolution, then a uniform draw.
+  constexpr double kStep = 0.01;
+  std::vector<double> far;
+  for (double s = 0.0; s < path.length(); s += kStep) {
+    if ((path.point_at(s) - away_from).norm() >= min_distance_m) far.push_back(s);
+  }
+  if (far.empty()) {
+    throw ConfigError(what + ": no point of the robot's route is " + std::to_string(min_distance_m) +
+                      " m or more from (" + std::to_string(away_from.x()) + ", " + std::to_string(away_from.y()) + ")");
+  }
+  std::uniform_int_distribution<size_t> pick(0, far.size() - 1);
+  std::uniform_real_distribution<double> within(0.0, kStep);
+  double s = far[pick(rng)] + within(rng);
+  if ((path.point_at(s) - away_from).norm() < min_distance_m) s = far[pick(rng)];  // stay in the far set
+  const Eigen::Vector2d p = path.point_at(s);
+  return {p.x(), p.y(), path.heading_at(s)};
+}
+
+Trajectory Trajectory::generate(const RobotSpec& robot, double duration_s, double sample_period_s,
+                                const std::optional<Teleport>& teleport) {
   if (!(sample_period_s > 0)) throw std::invalid_argument("Trajectory: sample period must be positive");
   const WaypointPath path(robot.waypoints, robot.loop);
   Trajectory trajectory;
   trajectory.period_ = sample_period_s;
   Pose2 pose = robot.start;
+  Pose2 driven = robot.start;
+  bool teleport_pending = teleport.has_value();
   double v = 0.0;
   double s = path.project({pose.x, pose.y}, 0.0, path.length());
   const size_t steps = static_cast<size_t>(std::floor(duration_s / sample_period_s + 1e-9));
   trajectory.samples_.reserve(steps + 1);
   for (size_t k = 0; k <= steps; ++k) {
     const double dt = sample_period_s;
+    const double t = static_cast<double>(k) * sample_period_s;
+    bool teleported = false;
+    if (teleport_pending && t >= teleport->at_s - 1e-9) {
+      teleport_pending = false;
+      teleported = true;
+      pose = teleport->to;
+      s = path.project({pose.x, pose.y}, 0.0, path.length());
+    }
     s = path.project({pose.x, pose.y}, s - 0.5, s + 2.0 * robot.lookahead + 0.5);
     const double remaining = path.loop() ? std::numeric_limits<double>::infinity() : path.length() - s;
     const Eigen::Vector2d target = path.point_at(s + robot.lookahead);
@@ -91,8 +135,10 @@ Trajectory Trajectory::generate(const RobotSpec& robot, double duration_s, doubl
     if (!path.loop() && remaining < 0.05) omega = 0.0;
 
     TruthSample sample;
-    sample.t = static_cast<double>(k) * sample_period_s;
+    sample.t = t;
     sample.pose = pose;
+    sample.driven = driven;
+    sample.teleported = teleported;
     sample.linear_velocity = v;
     sample.angular_velocity = omega;
     trajectory.samples_.push_back(sample);
@@ -101,9 +147,11 @@ Trajectory Trajectory::generate(const RobotSpec& robot, double duration_s, doubl
     // v dt sin(omega dt / 2) / (omega dt / 2) along the mean heading (stable as omega -> 0).
     const double half_turn = 0.5 * omega * dt;
     const double chord = v * dt * (std::abs(half_turn) > 1e-9 ? std::sin(half_turn) / half_turn : 1.0);
-    pose.x += chord * std::cos(pose.theta + half_turn);
-    pose.y += chord * std::sin(pose.theta + half_turn);
-    pose.theta = normalize_angle(pose.theta + omega * dt);
+    for (Pose2* p : {&pose, &driven}) {
+      p->x += chord * std::cos(p->theta + half_turn);
+      p->y += chord * std::sin(p->theta + half_turn);
+      p->theta = normalize_angle(p->theta + omega * dt);
+    }
     const double dv = std::clamp(v_target - v, -robot.max_acceleration * dt, robot.max_acceleration * dt);
     v += dv;
   }
@@ -120,9 +168,11 @@ TruthSample Trajectory::at(double t) const {
   const double u = std::clamp((t - a.t) / (b.t - a.t), 0.0, 1.0);
   TruthSample out;
   out.t = t;
-  out.pose.x = a.pose.x + u * (b.pose.x - a.pose.x);
-  out.pose.y = a.pose.y + u * (b.pose.y - a.pose.y);
-  out.pose.theta = normalize_angle(a.pose.theta + u * normalize_angle(b.pose.theta - a.pose.theta));
+  const auto interpolate = [u](const Pose2& p, const Pose2& q) {
+    return Pose2(p.x + u * (q.x - p.x), p.y + u * (q.y - p.y), normalize_angle(p.theta + u * normalize_angle(q.theta - p.theta)));
+  };
+  out.pose = b.teleported ? (u < 1.0 ? a.pose : b.pose) : interpolate(a.pose, b.pose);
+  out.driven = interpolate(a.driven.value_or(a.pose), b.driven.value_or(b.pose));
   out.linear_velocity = a.linear_velocity + u * (b.linear_velocity - a.linear_velocity);
   out.angular_velocity = a.angular_velocity + u * (b.angular_velocity - a.angular_velocity);
   return out;

@@ -1,6 +1,8 @@
 #include "localizer.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <cmath>
+#include <cstdio>
 #include <opencv2/core.hpp>
 
 #include "locd/ceiling_pf/velocity_motion_model.hpp"
@@ -8,6 +10,34 @@
 
 namespace locd::ceiling_pf {
 namespace {
+
+// The localization state (README "Localization state"), judged after every correction:
+//   lost       the frames fit the map far worse than the filter is used to: w_fast below
+//              kLostLikelihoodRatio of w_slow (augmented MCL's kidnap signal), or the last
+//              kExplainedFrames frames with detections explained less than kLostExplained of
+//              their detections on average; or no particles yet
+//   uncertain  several modes: the cluster around the mode holds less than kMinClusterMass of the
+//              weight; or the cluster's position stddev exceeds kMaxClusterStddev; or the weights
+//              rest on few particles: effective sample size below kMinEssShare of the set
+//   tracking   otherwise
+constexpr double kLostLikelihoodRatio = 0.5;
+constexpr size_t kExplainedFrames = 5;
+constexpr double kLostExplained = 0.2;
+constexpr double kMinClusterMass = 0.5;
+constexpr double kMaxClusterStddev = 0.5;  // m
+constexpr double kMinEssShare = 0.1;
+
+// The published covariance is the cluster's, but never below these stddevs (the position along
+// every direction, the heading): once KLD sampling has shrunk the set to its minimum after a
+// recovery, the particles' spread falls below the error they carry (sample impoverishment).
+constexpr double kPositionStddevFloor = 0.01;  // m
+constexpr double kHeadingStddevFloor = 0.005;  // rad
+
+std::string number(double v, int digits = 2) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.*f", digits, v);
+  return text;
+}
 
 // A plugin pose is (x, y, z, roll, pitch, yaw); the filter holds (x, y, yaw).
 constexpr int kPlanarIndex[3] = {0, 1, 5};
@@ -32,6 +62,7 @@ void CeilingPfLocalizer::configure(const PluginContext& context, const Params& p
   if (config_.initial_pose) filter_->set_pose(*config_.initial_pose, diagonal_variance(config_.initial_stddev));
   last_odometry_.reset();
   rejected_ = 0;
+  explained_.clear();
 }
 
 void CeilingPfLocalizer::set_pose(const PoseEstimate& pose) {
@@ -45,6 +76,7 @@ void CeilingPfLocalizer::set_pose(const PoseEstimate& pose) {
   const Eigen::LLT<Eigen::Matrix3d> llt(cov);
   if (!cov.allFinite() || llt.info() != Eigen::Success) cov = diagonal_variance(config_.initial_stddev);
   filter_->set_pose(mean, cov);
+  explained_.clear();
 }
 
 UpdateResult CeilingPfLocalizer::update(const Measurement& measurement) {
@@ -115,10 +147,56 @@ UpdateResult CeilingPfLocalizer::on_detections(const LandmarkDetections& frame) 
   return correct(frame.header, detections);
 }
 
+LocalizationAssessment CeilingPfLocalizer::assess(const CorrectionReport& report, size_t weighted_particles) {
+  if (report.detections > 0) {
+    explained_.push_back(report.mean_likelihood);
+    while (explained_.size() > kExplainedFrames) explained_.pop_front();
+  }
+  const std::optional<FilterEstimate> e = filter_->estimate();
+  if (!e) return {LocalizationState::kLost, "no particles yet: waiting for a frame with detections"};
+  const double slow = filter_->slow_average(), fast = filter_->fast_average();
+  if (slow > 0.0 && fast < kLostLikelihoodRatio * slow) {
+    return {LocalizationState::kLost, "frames fit the map far worse than usual: w_fast " + number(fast, 3) + " < " +
+                                          number(kLostLikelihoodRatio) + " w_slow (" + number(slow, 3) + ")"};
+  }
+  if (explained_.size() == kExplainedFrames) {
+    double sum = 0.0;
+    for (double v : explained_) sum += v;
+    const double mean = sum / static_cast<double>(kExplainedFrames);
+    if (mean < kLostExplained) {
+      return {LocalizationState::kLost, "the last " + std::to_string(kExplainedFrames) + " frames explained " +
+                                            number(100.0 * mean, 0) + " % of their detections < " +
+                                            number(100.0 * kLostExplained, 0) + " %"};
+    }
+  }
+  if (e->mass < kMinClusterMass) {
+    return {LocalizationState::kUncertain, "several modes: the cluster around the mode holds " +
+                                               number(100.0 * e->mass, 0) + " % of the weight < " +
+                                               number(100.0 * kMinClusterMass, 0) + " %"};
+  }
+  const double spread = std::sqrt(std::max(0.0, e->covariance.topLeftCorner<2, 2>().eigenvalues().real().maxCoeff()));
+  if (spread > kMaxClusterStddev) {
+    return {LocalizationState::kUncertain,
+            "cluster spread " + number(spread) + " m > " + number(kMaxClusterStddev) + " m"};
+  }
+  const double ess_share =
+      weighted_particles ? report.effective_sample_size / static_cast<double>(weighted_particles) : 1.0;
+  if (report.detections > 0 && ess_share < kMinEssShare) {
+    return {LocalizationState::kUncertain, "effective sample size " + number(100.0 * ess_share, 1) + " % of " +
+                                               std::to_string(weighted_particles) + " particles < " +
+                                               number(100.0 * kMinEssShare, 0) + " %"};
+  }
+  return {LocalizationState::kTracking, "tracking: cluster " + number(100.0 * e->mass, 0) + " % of the weight, spread " +
+                                            number(spread, 3) + " m, w_fast/w_slow " +
+                                            (slow > 0.0 ? number(fast / slow) : std::string("-"))};
+}
+
 UpdateResult CeilingPfLocalizer::correct(const Header& header, const std::vector<Detection>& detections) {
+  const size_t weighted = filter_->particles().size();
   const CorrectionReport report = filter_->correct(detections);
   UpdateResult result;
   result.estimate = make_estimate(header);
+  result.localization = assess(report, weighted);
   Diagnostics& d = result.diagnostics;
   d.values = {{"detections", static_cast<double>(report.detections)},
               {"particles", static_cast<double>(filter_->particles().size())},
@@ -154,9 +232,18 @@ std::optional<PoseEstimate> CeilingPfLocalizer::make_estimate(const Header& head
   out.header.stamp_ns = header.stamp_ns;
   out.header.frame_id = map_.frame_id;
   out.pose = e->pose.to_isometry();
+  Eigen::Matrix3d covariance = e->covariance;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(covariance.topLeftCorner<2, 2>());
+  for (int i = 0; i < 2; ++i) {
+    const double missing = kPositionStddevFloor * kPositionStddevFloor - eigen.eigenvalues()(i);
+    if (missing > 0.0) {
+      covariance.topLeftCorner<2, 2>() += missing * eigen.eigenvectors().col(i) * eigen.eigenvectors().col(i).transpose();
+    }
+  }
+  covariance(2, 2) = std::max(covariance(2, 2), kHeadingStddevFloor * kHeadingStddevFloor);
   out.covariance.setZero();
   for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) out.covariance(kPlanarIndex[r], kPlanarIndex[c]) = e->covariance(r, c);
+    for (int c = 0; c < 3; ++c) out.covariance(kPlanarIndex[r], kPlanarIndex[c]) = covariance(r, c);
   return out;
 }
 

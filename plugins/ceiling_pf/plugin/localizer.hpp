@@ -1,9 +1,10 @@
 // ceiling_pf's Localizer: thin I/O around the core. Odometry predicts, a mono image goes through
 // the detector, on-board detections go straight to the filter; every correction returns the
-// pose, the filter's diagnostics, the association of the best particle and a subsample of the
-// particles.
+// pose, the filter's diagnostics, the association of the best particle, a subsample of the
+// particles and the localization state.
 #pragma once
 
+#include <deque>
 #include <memory>
 #include <optional>
 #include <string>
@@ -28,6 +29,8 @@ class CeilingPfLocalizer : public Localizer {
   UpdateResult on_image(const Image& image);
   UpdateResult on_detections(const LandmarkDetections& frame);
   UpdateResult correct(const Header& header, const std::vector<Detection>& detections);
+  // The localization state after a correction (criteria in localizer.cpp and the README).
+  LocalizationAssessment assess(const CorrectionReport& report, size_t weighted_particles);
   std::optional<PoseEstimate> make_estimate(const Header& header) const;
 
   Config config_;
@@ -38,6 +41,7 @@ class CeilingPfLocalizer : public Localizer {
   std::optional<Pose2> last_odometry_;
   int64_t last_odometry_stamp_ = 0;
   size_t rejected_ = 0;
+  std::deque<double> explained_;  // share of detections explained, the last frames with detections
 };
 
 }  // namespace locd::ceiling_pf

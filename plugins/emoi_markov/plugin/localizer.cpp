@@ -54,6 +54,9 @@ UpdateResult EmoiMarkovLocalizer::update(const Measurement& measurement) {
     filter_->add_odometry(*odometry);
     UpdateResult result;
     result.estimate = filter_->estimate(odometry->header.stamp_ns);
+    // Judged at sensor updates; until the first one the state of the start (lost, or the initial
+    // pose's) goes with every pose.
+    if (filter_->sensor_updates() == 0) result.localization = filter_->assessment().localization;
     return result;
   }
   if (const auto* imu = std::get_if<Imu>(&measurement)) {
@@ -76,6 +79,8 @@ UpdateResult EmoiMarkovLocalizer::sensor_update_result(int64_t stamp_ns,
   if (!report) return result;
   result.estimate = filter_->estimate(stamp_ns);
   result.grid = filter_->belief_layer();
+  const BeliefAssessment& assessment = filter_->assessment();
+  result.localization = assessment.localization;
   const EmoiMarkovConfig& config = filter_->config();
   auto& values = result.diagnostics.values;
   for (size_t i = 0; i < config.radii_m.size(); ++i) {
@@ -93,6 +98,10 @@ UpdateResult EmoiMarkovLocalizer::sensor_update_result(int64_t stamp_ns,
   values.emplace_back("belief_resets", static_cast<double>(filter_->belief_resets()));
   values.emplace_back("max_probability", filter_->summary().max_probability);
   values.emplace_back("effective_cells", filter_->summary().effective_cells);
+  values.emplace_back("modes", static_cast<double>(assessment.modes.size()));
+  values.emplace_back("belief_area_m2", assessment.area_m2);
+  values.emplace_back("peak_mass", assessment.peak_mass);
+  if (std::isfinite(assessment.fit_rms_m)) values.emplace_back("fit_rms_m", assessment.fit_rms_m);
   values.emplace_back("sensor_updates", static_cast<double>(filter_->sensor_updates()));
   values.emplace_back("rejected_points", static_cast<double>(filter_->rejected_points()));
   return result;

@@ -26,7 +26,8 @@ EmoiMarkovConfig parse_config(const Params& params) {
                       "base_height_m", "local_map_size_m", "local_map_memory_m", "local_map_refresh_m", "min_point_range_m", "cache",
                       "belief_output_max_cells", "sensor_model", "match_resolution_m", "ground_offset_stddev_m",
                       "odometry_direction_error_rad", "distortion_nodes", "distortion_max_cells",
-                      "distortion_support_mass", "shape_sigma_m"});
+                      "distortion_support_mass", "shape_sigma_m", "shape_edge_step_m", "tracking_radius_m", "tracking_mass",
+                      "min_mode_mass", "lost_area_m2", "max_fit_rms_m"});
   EmoiMarkovConfig config;
   config.map = params.required_text("map");
   config.radii_m = params.numbers("radii_m", config.radii_m, 0, Range::open(0.0, 1000.0));
@@ -44,6 +45,8 @@ EmoiMarkovConfig parse_config(const Params& params) {
   config.sensor.ground_offset_stddev_m =
       params.number("ground_offset_stddev_m", config.sensor.ground_offset_stddev_m, Range::closed(0.0, 100.0));
   config.sensor.shape_sigma_m = params.number("shape_sigma_m", config.sensor.shape_sigma_m, Range::closed(0.0, 100.0));
+  config.sensor.shape_edge_step_m =
+      params.number("shape_edge_step_m", config.sensor.shape_edge_step_m, Range::closed(0.0, 1000.0));
   config.sensor_model = params.text("sensor_model", config.sensor_model, {"masked", "full_disk"});
   config.match_resolution_m = params.number("match_resolution_m", config.match_resolution_m, Range::open(0.0, 100.0));
   config.odometry_error = params.number("odometry_error", config.odometry_error, Range::closed(0.0, 1.0));
@@ -75,6 +78,12 @@ EmoiMarkovConfig parse_config(const Params& params) {
   config.cache = params.flag("cache", config.cache);
   config.belief_output_max_cells = static_cast<size_t>(
       params.integer("belief_output_max_cells", static_cast<long>(config.belief_output_max_cells), 1, 16'777'216));
+  AssessmentConfig& assessment = config.assessment;
+  assessment.tracking_radius_m = params.number("tracking_radius_m", assessment.tracking_radius_m, Range::open(0.0, 1000.0));
+  assessment.tracking_mass = params.number("tracking_mass", assessment.tracking_mass, Range::open(0.0, 1.0));
+  assessment.min_mode_mass = params.number("min_mode_mass", assessment.min_mode_mass, Range::open(0.0, 0.5));
+  assessment.lost_area_m2 = params.number("lost_area_m2", assessment.lost_area_m2, Range::positive());
+  assessment.max_fit_rms_m = params.number("max_fit_rms_m", assessment.max_fit_rms_m, Range::positive());
   return config;
 }
 

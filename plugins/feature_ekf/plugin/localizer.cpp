@@ -1,5 +1,6 @@
 #include "localizer.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <string>
 
@@ -62,7 +63,7 @@ void LaserFeatureLocalizer::configure(const PluginContext& context, const Params
 
 void LaserFeatureLocalizer::configure(const PluginContext& context, const Config& config) {
   FeatureMap2D map = load_feature_map(context.maps.resolve(config.map).string(), context.limits.max_map_cells);
-  filter_ = std::make_unique<FeatureEkfFilter>(config.laser, std::move(map));
+  filter_ = std::make_unique<RelocalizingFeatureEkf>(config.laser, std::move(map));
 }
 
 void LaserFeatureLocalizer::set_pose(const PoseEstimate& estimate) {
@@ -85,14 +86,16 @@ UpdateResult LaserFeatureLocalizer::update(const Measurement& measurement) {
 }
 
 UpdateResult LaserFeatureLocalizer::on_scan(const LaserScan& scan) {
-  const ScanUpdateReport report = filter_->update(scan);
+  const ScanOutcome outcome = filter_->update(scan);
+  const ScanUpdateReport& report = outcome.report;
   UpdateResult result;
   PoseEstimate estimate;
   estimate.header.stamp_ns = scan.header.stamp_ns;
-  estimate.header.frame_id = filter_->map().frame_id;
+  estimate.header.frame_id = filter_->filter().map().frame_id;
   estimate.pose = Pose2::from_vector(filter_->pose()).to_isometry();
-  estimate.covariance = embed_covariance(filter_->covariance());
+  estimate.covariance = embed_covariance(filter_->published_covariance());
   result.estimate = estimate;
+  result.localization = outcome.localization;
 
   Diagnostics& d = result.diagnostics;
   const ExtractedFeatures& f = report.features;
@@ -103,7 +106,19 @@ UpdateResult LaserFeatureLocalizer::on_scan(const LaserScan& scan) {
               {"corners_matched", static_cast<double>(report.matched[1])},
               {"edges_matched", static_cast<double>(report.matched[2])},
               {"mean_nis", report.mean_nis}};
-  const FeatureMap2D& map = filter_->map();
+  const WindowStatistics& w = outcome.window;
+  if (outcome.statistics.agreement) d.values.push_back({"scan_agreement", *outcome.statistics.agreement});
+  if (w.mean_agreement) d.values.push_back({"window_scan_agreement", *w.mean_agreement});
+  if (w.association_share) d.values.push_back({"window_association_share", *w.association_share});
+  if (w.updates) d.values.push_back({"window_nis_mean", w.nis_sum / static_cast<double>(w.updates)});
+  if (outcome.search) {
+    d.values.push_back({"relocalization_hypotheses", static_cast<double>(outcome.search->tracked.size())});
+    if (!outcome.search->tracked.empty()) {
+      d.values.push_back({"relocalization_best_agreement", outcome.search->tracked.front().recent});
+    }
+    d.values.push_back({"relocalized", outcome.relocalized ? 1.0 : 0.0});
+  }
+  const FeatureMap2D& map = filter_->filter().map();
   for (size_t i = 0; i < report.associations.size(); ++i) {
     const Association& a = report.associations[i];
     AssociationRecord record;
@@ -124,7 +139,7 @@ UpdateResult LaserFeatureLocalizer::initial_outputs() const {
   UpdateResult result;
   if (!filter_) return result;
   std::vector<MapFeature> features;
-  const FeatureMap2D& map = filter_->map();
+  const FeatureMap2D& map = filter_->filter().map();
   for (const LineFeature& l : map.lines) features.push_back(planar_feature(l.id, "line", l.a, l.b));
   for (const PointFeature& p : map.corners) features.push_back(planar_feature(p.id, "corner", p.position, p.position));
   for (const PointFeature& p : map.edges) features.push_back(planar_feature(p.id, "edge", p.position, p.position));
@@ -143,6 +158,7 @@ void LandmarkLocalizer::configure(const PluginContext& context, const Config& co
       load_landmark_database(context.maps.resolve(config.landmarks).string(), context.limits.max_map_cells);
   frame_id_ = config.frame_id;
   filter_ = std::make_unique<LandmarkEkfFilter>(config.landmark, std::move(database));
+  monitor_ = LocalizationMonitor(config.landmark.monitor);
 }
 
 void LandmarkLocalizer::set_pose(const PoseEstimate& estimate) {
@@ -156,6 +172,7 @@ void LandmarkLocalizer::set_pose(const PoseEstimate& estimate) {
   const double v = filter_->config().initial_velocity_stddev;
   covariance.bottomRightCorner<2, 2>() = v * v * Eigen::Matrix2d::Identity();
   filter_->set_state_enu(estimate.pose.translation().head<2>(), estimate.linear_velocity.head<2>(), covariance);
+  monitor_.reset();
 }
 
 // IMU only predicts: it returns no estimate (the pose is published once per detection frame).
@@ -189,6 +206,15 @@ UpdateResult LandmarkLocalizer::on_detections(const LandmarkDetections& detectio
 
   const Eigen::Vector2d geodetic = filter_->model().area().to_geodetic(position);
   const Eigen::Matrix4d P = filter_->covariance_enu();
+  ScanStatistics frame;
+  for (const DetectionReport& r : report.detections) {
+    ++frame.extracted;
+    if (r.landmark >= 0) ++frame.associated;
+    if (r.applied && r.mahalanobis2 >= 0.0) frame.nis.push_back(r.mahalanobis2);
+  }
+  frame.position_stddev = std::sqrt(
+      std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(P.topLeftCorner<2, 2>()).eigenvalues().maxCoeff()));
+  result.localization = monitor_.add(frame);
   Diagnostics& d = result.diagnostics;
   size_t hypotheses = 0, in_gate = 0;
   for (const DetectionReport& r : report.detections) {

@@ -9,7 +9,7 @@
 #include <memory>
 #include <string>
 
-#include "locd/feature_ekf/feature_ekf_filter.hpp"
+#include "locd/feature_ekf/relocalizing_feature_ekf.hpp"
 #include "locd/feature_ekf/landmark_ekf_filter.hpp"
 #include "locd/sdk/plugin.hpp"
 
@@ -25,7 +25,7 @@ class LaserFeatureLocalizer : public Localizer {
 
  private:
   UpdateResult on_scan(const LaserScan& scan);
-  std::unique_ptr<FeatureEkfFilter> filter_;
+  std::unique_ptr<RelocalizingFeatureEkf> filter_;
 };
 
 class LandmarkLocalizer : public Localizer {
@@ -39,6 +39,7 @@ class LandmarkLocalizer : public Localizer {
  private:
   UpdateResult on_detections(const LandmarkDetections& detections);
   std::unique_ptr<LandmarkEkfFilter> filter_;
+  LocalizationMonitor monitor_;  // over detection frames: association share and NIS (no scan agreement)
   std::string frame_id_ = "map";
 };
 

@@ -15,10 +15,74 @@ Eigen::Vector3d vector3(const std::vector<double>& v) { return {v[0], v[1], v[2]
 constexpr double kMaxCentreLatitude = 85.0;
 constexpr double kMaxLongitude = 180.0;
 
+// localization: the state criteria (both models; the landmark models have no scan agreement).
+void read_monitor_config(const Params& monitor, MonitorConfig& m) {
+  const Range share = Range::closed(0.0, 1.0);
+  monitor.expect_only({"window_scans", "lost_window_scans", "lost_agreement", "min_agreement", "lost_association_share",
+                       "min_association_share", "min_window_features", "nis_probability", "max_tracking_stddev",
+                       "lost_after_uncertain_scans"});
+  m.window_scans = static_cast<int>(monitor.integer("window_scans", m.window_scans, 1, 10000));
+  m.lost_window_scans = static_cast<int>(monitor.integer("lost_window_scans", m.lost_window_scans, 1, m.window_scans));
+  m.lost_agreement = monitor.number("lost_agreement", m.lost_agreement, share);
+  m.min_agreement = monitor.number("min_agreement", m.min_agreement, share);
+  m.lost_association_share = monitor.number("lost_association_share", m.lost_association_share, share);
+  m.min_association_share = monitor.number("min_association_share", m.min_association_share, share);
+  m.min_window_features = static_cast<int>(monitor.integer("min_window_features", m.min_window_features, 1, 1000000));
+  m.nis_probability = monitor.number("nis_probability", m.nis_probability, Range::open(0.0, 1.0));
+  m.max_tracking_stddev = monitor.number("max_tracking_stddev", m.max_tracking_stddev, Range::positive());
+  m.lost_after_uncertain_scans =
+      static_cast<int>(monitor.integer("lost_after_uncertain_scans", m.lost_after_uncertain_scans, 0, 1000000));
+}
+
+// scan_agreement, localization (the state criteria) and global_search (relocalization).
+void read_state_config(const Params& params, FeatureEkfConfig& c) {
+  const Range positive = Range::positive(), non_negative = Range::non_negative(), share = Range::closed(0.0, 1.0);
+  const Params agreement = params.child("scan_agreement");
+  agreement.expect_only({"beams", "min_beams", "tolerance", "tolerance_per_metre"});
+  ScanAgreementConfig& a = c.agreement;
+  a.beams = static_cast<int>(agreement.integer("beams", a.beams, 1, 100000));
+  a.min_beams = static_cast<int>(agreement.integer("min_beams", a.min_beams, 1, 100000));
+  a.tolerance = agreement.number("tolerance", a.tolerance, positive);
+  a.tolerance_per_metre = agreement.number("tolerance_per_metre", a.tolerance_per_metre, non_negative);
+
+  read_monitor_config(params.child("localization"), c.monitor);
+
+  const Params search = params.child("global_search");
+  search.expect_only({"enabled", "min_pair_angle", "angle_tolerance", "max_pair_distance", "max_map_pairs", "interval_s",
+                      "new_hypotheses", "max_tracked_hypotheses", "merge_distance", "merge_angle",
+                      "agreement_smoothing", "drop_agreement", "drop_disagreement", "birth_disagreement",
+                      "min_hypothesis_scans", "accept_agreement", "ambiguity_disagreement", "distinct_distance",
+                      "distinct_angle", "relocalized_stddev"});
+  GlobalSearchConfig& g = c.global_search;
+  g.enabled = search.flag("enabled", g.enabled);
+  g.min_pair_angle = search.number("min_pair_angle", g.min_pair_angle, Range::open(0.0, M_PI / 2));
+  g.angle_tolerance = search.number("angle_tolerance", g.angle_tolerance, Range::open(0.0, M_PI / 2));
+  g.max_pair_distance = search.number("max_pair_distance", g.max_pair_distance, positive);
+  g.max_map_pairs = static_cast<size_t>(search.integer("max_map_pairs", static_cast<long>(g.max_map_pairs), 1, 100'000'000));
+  g.interval_s = search.number("interval_s", g.interval_s, non_negative);
+  g.new_hypotheses = static_cast<size_t>(search.integer("new_hypotheses", static_cast<long>(g.new_hypotheses), 1, 10000));
+  g.max_tracked_hypotheses = static_cast<size_t>(
+      search.integer("max_tracked_hypotheses", static_cast<long>(g.max_tracked_hypotheses), 1, 10000));
+  g.merge_distance = search.number("merge_distance", g.merge_distance, positive);
+  g.merge_angle = search.number("merge_angle", g.merge_angle, positive);
+  g.agreement_smoothing = search.number("agreement_smoothing", g.agreement_smoothing, Range{0.0, 1.0, true, false});
+  g.drop_agreement = search.number("drop_agreement", g.drop_agreement, share);
+  g.drop_disagreement = search.number("drop_disagreement", g.drop_disagreement, positive);
+  g.birth_disagreement = search.number("birth_disagreement", g.birth_disagreement, non_negative);
+  g.min_hypothesis_scans = static_cast<int>(search.integer("min_hypothesis_scans", g.min_hypothesis_scans, 1, 100000));
+  g.accept_agreement = search.number("accept_agreement", g.accept_agreement, share);
+  g.ambiguity_disagreement = search.number("ambiguity_disagreement", g.ambiguity_disagreement, non_negative);
+  g.distinct_distance = search.number("distinct_distance", g.distinct_distance, positive);
+  g.distinct_angle = search.number("distinct_angle", g.distinct_angle, positive);
+  g.relocalized_stddev = vector3(search.numbers(
+      "relocalized_stddev", {g.relocalized_stddev.x(), g.relocalized_stddev.y(), g.relocalized_stddev.z()}, 3, positive));
+}
+
 FeatureEkfConfig laser_config(const Params& params) {
   params.expect_only({"model", "map", "initial_pose", "initial_stddev", "gate_probability", "max_feature_range",
                       "line_overlap_margin", "use_lines", "use_corners", "use_edges", "max_odometry_gap",
-                      "motion", "extraction"});
+                      "position_stddev_floor", "heading_stddev_floor", "motion", "extraction", "scan_agreement",
+                      "localization", "global_search"});
   FeatureEkfConfig c;
   const Range positive = Range::positive(), non_negative = Range::non_negative();
   c.initial_pose = vector3(params.numbers("initial_pose", {c.initial_pose.x(), c.initial_pose.y(), c.initial_pose.z()}, 3));
@@ -32,6 +96,8 @@ FeatureEkfConfig laser_config(const Params& params) {
   c.use_corners = params.flag("use_corners", c.use_corners);
   c.use_edges = params.flag("use_edges", c.use_edges);
   c.max_odometry_gap = params.number("max_odometry_gap", c.max_odometry_gap, positive);
+  c.position_stddev_floor = params.number("position_stddev_floor", c.position_stddev_floor, non_negative);
+  c.heading_stddev_floor = params.number("heading_stddev_floor", c.heading_stddev_floor, non_negative);
 
   const Params motion = params.child("motion");
   motion.expect_only({"speed_stddev_per_speed", "speed_stddev_floor", "turn_stddev_per_turn",
@@ -62,6 +128,7 @@ FeatureEkfConfig laser_config(const Params& params) {
   e.line_alpha_stddev = extraction.number("line_alpha_stddev", e.line_alpha_stddev, non_negative);
   e.point_range_stddev = extraction.number("point_range_stddev", e.point_range_stddev, non_negative);
   e.point_bearing_stddev = extraction.number("point_bearing_stddev", e.point_bearing_stddev, non_negative);
+  read_state_config(params, c);
   return c;
 }
 
@@ -69,7 +136,7 @@ LandmarkEkfConfig landmark_config(const Params& params, LandmarkModelKind model)
   params.expect_only({"model", "landmarks", "association", "gate_threshold", "false_detection_probability",
                       "jcbb_max_nodes", "centre", "altitude", "velocity_noise_per_step", "position_noise_per_step",
                       "detection_stddev", "initial_position", "initial_velocity", "initial_stddev", "max_imu_gap",
-                      "frame_id"});
+                      "frame_id", "localization"});
   LandmarkEkfConfig c;
   c.model = model;
   const Range positive = Range::positive(), non_negative = Range::non_negative();
@@ -101,6 +168,7 @@ LandmarkEkfConfig landmark_config(const Params& params, LandmarkModelKind model)
   c.initial_position_stddev = s0[0];
   c.initial_velocity_stddev = s0[1];
   c.max_imu_gap = params.number("max_imu_gap", c.max_imu_gap, positive);
+  read_monitor_config(params.child("localization"), c.monitor);
   return c;
 }
 

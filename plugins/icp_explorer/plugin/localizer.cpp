@@ -16,7 +16,7 @@ void IcpExplorerLocalizer::configure(const PluginContext& context, const Params&
 
 void IcpExplorerLocalizer::set_pose(const PoseEstimate& pose) {
   if (!pose.pose.matrix().allFinite()) throw InputError("initial pose: non-finite values");
-  if (explorer_) explorer_->set_pose(pose.pose);
+  if (explorer_) explorer_->set_pose(pose.pose, pose.covariance);
 }
 
 UpdateResult IcpExplorerLocalizer::update(const Measurement& measurement) {
@@ -41,6 +41,7 @@ UpdateResult IcpExplorerLocalizer::update(const Measurement& measurement) {
   estimate.pose = outcome.T_map_base;
   estimate.covariance = outcome.covariance;
   result.estimate = estimate;
+  result.localization = outcome.localization;
 
   auto& v = result.diagnostics.values;
   const RegistrationResult& r = outcome.registration;
@@ -56,6 +57,14 @@ UpdateResult IcpExplorerLocalizer::update(const Measurement& measurement) {
                  static_cast<double>(r.counts[static_cast<size_t>(Rejection::kErrorDirection)]));
   v.emplace_back("beyond_correspondence_distance", static_cast<double>(r.beyond_distance));
   v.emplace_back("rms_error_m", r.rms_error);
+  v.emplace_back("coarse_iterations", r.coarse_iterations);
+  v.emplace_back("inlier_share", r.inlier_share);
+  v.emplace_back("inlier_rms_m", r.inlier_rms);
+  v.emplace_back("kernel_scale_m", r.kernel_scale);
+  v.emplace_back("degenerate_directions", r.degenerate_directions);
+  v.emplace_back("smallest_constraint_share", r.constraint_shares(0));
+  v.emplace_back("added_to_model", outcome.added_to_model ? 1.0 : 0.0);
+  v.emplace_back("intensity_scale", explorer_->intensity_scale());
   v.emplace_back("source_points", static_cast<double>(outcome.source_points));
   v.emplace_back("non_finite_points", static_cast<double>(outcome.non_finite_points));
   v.emplace_back("non_finite_points_total", static_cast<double>(non_finite_points_));

@@ -11,11 +11,20 @@ constexpr double kDegree = M_PI / 180.0;
 }  // namespace
 
 IcpExplorerConfig parse_config(const Params& p, const Limits& limits) {
-  p.expect_only({"max_points", "scan_voxel_size", "map_voxel_size", "normal_neighbours", "carve_free_space",
+  p.expect_only({"max_points", "intensity_scale", "scan_voxel_size", "map_voxel_size", "normal_neighbours", "carve_free_space",
                  "carve_min_rays", "icp", "rejection", "odometry_bound", "exploration", "map_output"});
   IcpExplorerConfig c;
   c.max_points = static_cast<size_t>(p.integer("max_points", static_cast<long>(std::min(c.max_points, limits.max_cloud_points)),
                                                1, static_cast<long>(limits.max_cloud_points)));
+  // intensity_scale: "auto" (estimated from the first cloud) or the intensity of full reflectivity.
+  const YAML::Node scale = p.node()["intensity_scale"];
+  if (scale && scale.IsScalar() && scale.Scalar() == "auto") {
+    c.intensity_scale = 0.0;
+  } else {
+    c.intensity_scale = p.number("intensity_scale", c.intensity_scale, Range::non_negative());
+    if (p.has("intensity_scale") && c.intensity_scale == 0.0)
+      p.fail("intensity_scale", "must be \"auto\" or a positive number (the intensity of full reflectivity, e.g. 1 or 255)");
+  }
   c.scan_voxel_size = p.number("scan_voxel_size", c.scan_voxel_size, Range::closed(0.01, 5.0));
   c.map_voxel_size = p.number("map_voxel_size", c.map_voxel_size, Range::closed(0.01, 2.0));
   c.normal_neighbours = static_cast<int>(p.integer("normal_neighbours", c.normal_neighbours, 3, 64));
@@ -24,7 +33,8 @@ IcpExplorerConfig parse_config(const Params& p, const Limits& limits) {
 
   const Params icp = p.child("icp");
   icp.expect_only({"metric", "max_iterations", "max_correspondence_distance", "kernel_scale", "initial_kernel_scale",
-                   "coarse_stride", "convergence_translation", "convergence_rotation"});
+                   "coarse_stride", "convergence_translation", "convergence_rotation", "coarse_stage", "degeneracy",
+                   "trust"});
   c.icp.metric = icp.text("metric", "point_to_plane", {"point_to_plane", "point_to_point"}) == "point_to_plane"
                      ? IcpMetric::kPointToPlane
                      : IcpMetric::kPointToPoint;
@@ -36,6 +46,32 @@ IcpExplorerConfig parse_config(const Params& p, const Limits& limits) {
   c.icp.coarse_stride = static_cast<int>(icp.integer("coarse_stride", c.icp.coarse_stride, 1, 64));
   c.icp.convergence_translation = icp.number("convergence_translation", c.icp.convergence_translation, Range::open(0.0, 1.0));
   c.icp.convergence_rotation = icp.number("convergence_rotation", c.icp.convergence_rotation, Range::open(0.0, 1.0));
+  const Params coarse = icp.child("coarse_stage");
+  coarse.expect_only({"enabled", "voxel_size", "initial_kernel_scale", "kernel_scale"});
+  c.icp.coarse.enabled = coarse.flag("enabled", c.icp.coarse.enabled);
+  c.icp.coarse.voxel_size = coarse.number("voxel_size", c.icp.coarse.voxel_size, Range::closed(0.05, 10.0));
+  c.icp.coarse.initial_kernel_scale =
+      coarse.number("initial_kernel_scale", c.icp.coarse.initial_kernel_scale, Range{0.0, 50.0, true, false});
+  c.icp.coarse.kernel_scale = coarse.number("kernel_scale", c.icp.coarse.kernel_scale, Range{0.0, 50.0, true, false});
+  const Params degeneracy = icp.child("degeneracy");
+  degeneracy.expect_only({"hold_to_prior", "min_constraint_share", "confident_constraint_share"});
+  c.icp.degeneracy.hold_to_prior = degeneracy.flag("hold_to_prior", c.icp.degeneracy.hold_to_prior);
+  c.icp.degeneracy.min_constraint_share =
+      degeneracy.number("min_constraint_share", c.icp.degeneracy.min_constraint_share, Range{0.0, 1.0, false, true});
+  c.icp.degeneracy.confident_constraint_share = degeneracy.number(
+      "confident_constraint_share", c.icp.degeneracy.confident_constraint_share, Range{0.0, 1.0, false, true});
+  if (c.icp.degeneracy.confident_constraint_share < c.icp.degeneracy.min_constraint_share)
+    degeneracy.fail("confident_constraint_share", "must be at least min_constraint_share (" +
+                                                      std::to_string(c.icp.degeneracy.min_constraint_share) + ")");
+  const Params trust = icp.child("trust");
+  trust.expect_only({"min_inlier_share", "inlier_distance", "overlap_distance", "max_rms_error", "max_degenerate_directions"});
+  c.icp.trust.min_inlier_share = trust.number("min_inlier_share", c.icp.trust.min_inlier_share, Range::closed(0.0, 1.0));
+  c.icp.trust.inlier_distance = trust.number("inlier_distance", c.icp.trust.inlier_distance, Range{0.0, 10.0, true, false});
+  c.icp.trust.overlap_distance =
+      trust.number("overlap_distance", c.icp.trust.overlap_distance, Range{0.0, 50.0, true, false});
+  c.icp.trust.max_rms_error = trust.number("max_rms_error", c.icp.trust.max_rms_error, Range{0.0, 10.0, true, false});
+  c.icp.trust.max_degenerate_directions =
+      static_cast<int>(trust.integer("max_degenerate_directions", c.icp.trust.max_degenerate_directions, 0, 6));
 
   const Params rules = p.child("rejection");
   rules.expect_only({"intensity", "overlap", "error_length", "error_direction", "intensity_threshold", "max_range"});

@@ -2,7 +2,9 @@
 // emoi_markov session on a small DSM (GeoTIFF in a map directory), streams odometry, IMU and
 // tilting-laser scans from the simulator, and gets poses, the belief grid and diagnostics back;
 // a scan with a NaN sensor pose is rejected with a clear error on its status, counted, and the
-// session carries on.
+// session carries on. The plugin's localization state reaches the robot's status: lost from the
+// start (global belief, no sensor update yet), then judged by the sensor updates, with the
+// criterion that decided it.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -79,11 +81,20 @@ TEST(EmoiMarkovOverDds, LocalizesFromScansAndRejectsABadScan) {
 
   int64_t last_odometry_stamp = 0;
   bool bad_scan_sent = false;
+  bool start_state_seen = false;
+  std::string start_state, start_reason;
   size_t poses_before_bad_scan = 0;
   sim::simulate_measurements(scenario, run, 11, [&](const locd::Measurement& m, const Eigen::Isometry3d&) {
     if (const auto* o = std::get_if<locd::Odometry>(&m)) {
       locd::dds::write(odometry, robot.robot_id(), *o);
       last_odometry_stamp = o->header.stamp_ns;
+      if (!start_state_seen && o->header.stamp_ns > 1'000'000'000) {  // 1 m driven: no sensor update yet
+        start_state_seen = true;
+        auto lock = robot.lock();
+        EXPECT_TRUE(robot.wait(lock, [&] { return robot.status().localization != "unknown"; }, "a localization state"));
+        start_state = robot.status().localization;
+        start_reason = robot.status().localization_reason;
+      }
     } else if (const auto* i = std::get_if<locd::Imu>(&m)) {
       locd::dds::write(imu, robot.robot_id(), *i);
     } else if (const auto* s = std::get_if<locd::LaserScan>(&m)) {
@@ -112,6 +123,16 @@ TEST(EmoiMarkovOverDds, LocalizesFromScansAndRejectsABadScan) {
   EXPECT_GE(diagnostics_with_coverage, 2u);
   EXPECT_EQ(diagnostics_plugin, "emoi_markov");
   for (const locd::PoseEstimate& p : robot.poses()) EXPECT_TRUE(p.pose.translation().allFinite());
+  EXPECT_EQ(start_state, "lost") << start_reason;
+  EXPECT_NE(start_reason.find("no sensor update yet"), std::string::npos) << start_reason;
+  // After the sensor updates: judged by a criterion of the README (modes, peak mass, area, fit).
+  const std::string& state = robot.status().localization;
+  const std::string& reason = robot.status().localization_reason;
+  EXPECT_TRUE(state == "tracking" || state == "uncertain" || state == "lost") << state;
+  EXPECT_EQ(reason.find("no sensor update yet"), std::string::npos) << reason;
+  EXPECT_TRUE(reason.find("mode") != std::string::npos || reason.find("belief") != std::string::npos ||
+              reason.find("fits") != std::string::npos)
+      << reason;
 }
 
 }  // namespace

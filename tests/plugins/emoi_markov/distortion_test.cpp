@@ -276,6 +276,28 @@ TEST(DistortionMixture, DirectMaskedSumsEqualTheDftMatch) {
   }
 }
 
+// The shape residual's direct formula at cell x of a 100 x 100 map: min over c of the mean of
+// (T - e - c)^2 over the observed cells of the disk of `reach` cells that have data and are not
+// `left_out`; NaN without any.
+template <class LeftOut>
+double direct_shape_residual(const ElevationMap& map, const cv::Mat_<float>& patch, const cv::Point& x, int reach,
+                             LeftOut left_out) {
+  const int half = patch.rows / 2;
+  double sum = 0.0, square = 0.0, n = 0.0;
+  for (int dr = -reach; dr <= reach; ++dr)
+    for (int dc = -reach; dc <= reach; ++dc) {
+      const int r = x.y + dr, c = x.x + dc;
+      if (dr * dr + dc * dc >= reach * reach || r < 0 || c < 0 || r >= 100 || c >= 100) continue;
+      const float t = patch(half + dr, half + dc), e = map.elevation(r, c);
+      if (!std::isfinite(t) || !std::isfinite(e) || left_out(r, c)) continue;
+      const double d = static_cast<double>(t) - e;
+      sum += d;
+      square += d * d;
+      n += 1.0;
+    }
+  return n < 1.0 ? std::nan("") : square / n - (sum / n) * (sum / n);
+}
+
 // The shape term: at each listed cell, min over c of the mean of (T - e - c)^2 over the observed
 // cells of the largest disk that have data, against that formula summed directly; the map's own
 // elevations cut out as the patch (lifted by a constant) match exactly where they were cut and
@@ -307,19 +329,7 @@ TEST(ShapeResidual, EqualsTheBestOffsetMeanSquaredDifference) {
         EXPECT_TRUE(std::isnan(got)) << x;
         continue;
       }
-      double sum = 0.0, square = 0.0, n = 0.0;
-      for (int dr = -reach; dr <= reach; ++dr)
-        for (int dc = -reach; dc <= reach; ++dc) {
-          const int r = x.y + dr, c = x.x + dc;
-          if (dr * dr + dc * dc >= reach * reach || r < 0 || c < 0 || r >= 100 || c >= 100) continue;
-          const float t = patch(half + dr, half + dc), e = map.elevation(r, c);
-          if (!std::isfinite(t) || !std::isfinite(e)) continue;
-          const double d = static_cast<double>(t) - e;
-          sum += d;
-          square += d * d;
-          n += 1.0;
-        }
-      const double expected = square / n - (sum / n) * (sum / n);
+      const double expected = direct_shape_residual(map, patch, x, reach, [](int, int) { return false; });
       EXPECT_NEAR(got, expected, 1e-3 * std::max(1.0, expected)) << x << " lift " << lift;
       if (i > 0) {
         EXPECT_GT(got, 0.05) << "only the cut cell matches: " << x;
@@ -345,6 +355,68 @@ TEST(ShapeResidual, EqualsTheBestOffsetMeanSquaredDifference) {
     }
     EXPECT_GE(compared, 30);
   }
+}
+
+// The shape term with shape_edge_step_m: a box on rough ground, cut out as the patch the way a
+// ground robot's laser sees it (the box's rim at 1 m, its face's highest return, not its 5 m
+// top; its inside unseen). Without the edge mask the rim dominates the residual at the cut; with
+// it the residual there is the rough ground's alone, and at every listed cell it equals the
+// direct formula over the cells whose DSM 3 x 3 neighbourhood steps by at most the threshold.
+TEST(ShapeResidual, LeavesOutTheDsmsEdgeCells) {
+  ElevationMap map = rough_map(100, 0.5, 11, 0.05);
+  for (auto& v : map.elevation) v *= 0.1f;  // steps within the ground stay below 0.5 m
+  const cv::Rect box(40, 45, 12, 9);
+  map.elevation(box) += 5.0f;
+  const cv::Point cut(44, 44);
+  const float step = 0.5f;
+  MaskedEmoiMatcher plain(map, {2.0, 6.0, 4.0}, 0.5);
+  MaskedEmoiMatcher masked(map, {2.0, 6.0, 4.0}, 0.5, step);
+  const int half = plain.patch_radius();
+  const int reach = locd::emoi::radius_in_cells(6.0, 0.5);
+  cv::Mat_<float> patch(2 * half + 1, 2 * half + 1, kNaN);
+  const cv::Rect inner(box.x + 1, box.y + 1, box.width - 2, box.height - 2);
+  for (int i = -half; i <= half; ++i)
+    for (int j = -half; j <= half; ++j) {
+      const cv::Point p(cut.x + j, cut.y + i);
+      if (inner.contains(p)) continue;  // the roof: unseen
+      const float ground = map.elevation(p.y, p.x);
+      patch(i + half, j + half) = box.contains(p) ? ground - 4.0f : ground;  // the rim: 1 m above the ground
+    }
+  std::vector<cv::Point> cells{cut};
+  for (int k = 0; k < 40; ++k) cells.emplace_back(15 + k * 7 % 70, 15 + k * 13 % 70);
+  const auto without = plain.match_at(patch, cells, true);
+  const auto with = masked.match_at(patch, cells, true);
+  EXPECT_GT(without.shape_residual(0, 0), 0.5);
+  EXPECT_LT(with.shape_residual(0, 0), 0.01);
+  auto edge = [&](int r, int c) {
+    float low = map.elevation(r, c), high = low;
+    for (int a = -1; a <= 1; ++a)
+      for (int b = -1; b <= 1; ++b) {
+        const int rr = r + a, cc = c + b;
+        if (rr < 0 || cc < 0 || rr >= 100 || cc >= 100 || !std::isfinite(map.elevation(rr, cc))) continue;
+        low = std::min(low, map.elevation(rr, cc));
+        high = std::max(high, map.elevation(rr, cc));
+      }
+    return high - low > step;
+  };
+  int compared = 0;
+  for (size_t i = 0; i < cells.size(); ++i) {
+    const cv::Point& x = cells[i];
+    if (!std::isfinite(map.elevation(x.y, x.x))) continue;
+    const double expected = direct_shape_residual(map, patch, x, reach, edge);
+    if (std::isnan(expected)) continue;
+    EXPECT_NEAR(with.shape_residual(0, static_cast<int>(i)), expected, 1e-3 * std::max(1.0, expected)) << x;
+    ++compared;
+  }
+  EXPECT_GE(compared, 30);
+  // The EMOI sums do not change.
+  for (size_t k = 0; k < 3; ++k)
+    for (int i = 0; i < with.dsm_emoi[k].cols; ++i) {
+      const float a = with.dsm_emoi[k](0, i), b = without.dsm_emoi[k](0, i);
+      if (std::isfinite(a) || std::isfinite(b)) {
+        EXPECT_FLOAT_EQ(a, b);
+      }
+    }
 }
 
 // When the rebuilt local map does not depend on the hypothesis, marginalising changes nothing:

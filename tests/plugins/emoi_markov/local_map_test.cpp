@@ -2,10 +2,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <random>
 
 #include "locd/emoi_markov/local_elevation_map.hpp"
 #include "locd/sdk/geometry.hpp"
+#include "locd/sdk/errors.hpp"
+#include "locd/sim_emoi_markov/four_positions.hpp"
 #include "locd/sim_emoi_markov/synthetic_dsm.hpp"
 #include "locd/sim_emoi_markov/tilting_laser.hpp"
 
@@ -184,6 +188,49 @@ TEST(Simulator, WorldsAreDeterministicFromTheSeed) {
   double low = 0.0;
   cv::minMaxLoc(difference, &low);
   EXPECT_GE(low, 0.0);
+}
+
+// robot.random_path: a new path per seed, the same for the same seed; legs of leg_m, turns within
+// max_turn_deg, every waypoint margin_m inside the world; given with `path` it is refused by name.
+TEST(Simulator, RandomPathsPerSeedStayInsideAndTurnWithinTheLimit) {
+  const std::filesystem::path directory = std::filesystem::temp_directory_path() / "emoi_random_path_test";
+  std::filesystem::create_directories(directory);
+  std::ofstream(directory / "plugin.yaml") << "plugin: emoi_markov\nparams:\n  map: x.tif\n";
+  const std::string common =
+      "kind: emoi_four_positions\nworld: {size_m: [150, 120]}\nsensors: {laser: {}, odometry: {}, imu: {}}\n"
+      "localizer: {config_file: plugin.yaml}\n";
+  std::ofstream(directory / "random.yaml")
+      << common << "robot: {random_path: {legs: 6, leg_m: 12, max_turn_deg: 45, margin_m: 20}}\n";
+  std::ofstream(directory / "both.yaml")
+      << common << "robot: {path: [[10, 10], [20, 10]], random_path: {legs: 2}}\n";
+  const sim::FourPositionsScenario scenario = sim::load_four_positions(directory / "random.yaml");
+  const auto a = sim::path_for_seed(scenario, 3), b = sim::path_for_seed(scenario, 3), c = sim::path_for_seed(scenario, 4);
+  ASSERT_EQ(a.size(), 7u);
+  EXPECT_EQ(a, b);
+  EXPECT_NE(a, c);
+  for (const auto& path : {a, c}) {
+    for (size_t i = 0; i < path.size(); ++i) {
+      EXPECT_GE(path[i].x(), 20.0 - 1e-9);
+      EXPECT_LE(path[i].x(), 130.0 + 1e-9);
+      EXPECT_GE(path[i].y(), 20.0 - 1e-9);
+      EXPECT_LE(path[i].y(), 100.0 + 1e-9);
+      if (i > 0) {
+        EXPECT_NEAR((path[i] - path[i - 1]).norm(), 12.0, 1e-9);
+      }
+      if (i > 1) {
+        const Eigen::Vector2d u = path[i - 1] - path[i - 2], v = path[i] - path[i - 1];
+        EXPECT_LE(std::acos(std::clamp(u.dot(v) / (u.norm() * v.norm()), -1.0, 1.0)), M_PI / 4 + 1e-9);
+      }
+    }
+  }
+  EXPECT_EQ(sim::build_run(scenario, 3).path, a);
+  try {
+    sim::load_four_positions(directory / "both.yaml");
+    FAIL() << "no error";
+  } catch (const locd::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("random_path"), std::string::npos) << e.what();
+  }
+  std::filesystem::remove_all(directory);
 }
 
 }  // namespace

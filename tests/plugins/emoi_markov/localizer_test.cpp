@@ -138,6 +138,40 @@ TEST(EmoiMarkovInput, InitialPoseGivesAGaussianBelief) {
   EXPECT_NEAR(summary.covariance(0, 0), 1.0, 0.1);
 }
 
+// The localization state: lost with every pose until the first sensor update of a global
+// belief; an initial pose is judged at once (a 3 m one: uncertain, most of it beyond 1 m); the
+// new parameters are range-checked.
+TEST(EmoiMarkovState, LostUntilTheFirstSensorUpdateAndAnInitialPoseJudged) {
+  SmallWorld world;
+  EmoiMarkovLocalizer global;
+  global.configure(world.context(), params_of(kGood));
+  Odometry odometry;
+  odometry.header.stamp_ns = 1000;
+  const UpdateResult first = global.update(odometry);
+  ASSERT_TRUE(first.localization.has_value());
+  EXPECT_EQ(first.localization->state, LocalizationState::kLost);
+  EXPECT_NE(first.localization->reason.find("no sensor update yet"), std::string::npos) << first.localization->reason;
+
+  EmoiMarkovLocalizer tracking;
+  tracking.configure(world.context(), params_of(std::string(kGood) + "  use_initial_pose: true\n"));
+  PoseEstimate pose;
+  pose.pose = isometry_from_xyz_rpy(20.0, 30.0, 0.0, 0.0, 0.0, 0.0);
+  pose.covariance = Matrix6d::Identity() * 9.0;
+  tracking.set_pose(pose);
+  const UpdateResult after = tracking.update(odometry);
+  ASSERT_TRUE(after.localization.has_value());
+  EXPECT_EQ(after.localization->state, LocalizationState::kUncertain) << after.localization->reason;
+  EXPECT_NE(after.localization->reason.find("tracking_mass"), std::string::npos) << after.localization->reason;
+
+  EmoiMarkovLocalizer bad;
+  std::string e = config_error(bad, world.context(), std::string(kGood) + "  tracking_mass: 1.5\n");
+  EXPECT_NE(e.find("emoi_markov.tracking_mass"), std::string::npos) << e;
+  e = config_error(bad, world.context(), std::string(kGood) + "  max_fit_rms_m: 0\n");
+  EXPECT_NE(e.find("emoi_markov.max_fit_rms_m"), std::string::npos) << e;
+  e = config_error(bad, world.context(), std::string(kGood) + "  shape_edge_step_m: -1\n");
+  EXPECT_NE(e.find("emoi_markov.shape_edge_step_m"), std::string::npos) << e;
+}
+
 // A short drive on a small world from a rough initial pose (3 m): every sensor update returns a
 // pose, the belief grid and diagnostics; the belief stays normalised, and after the last update
 // the estimate is near the truth and most of the belief within 2 m of it.
@@ -183,6 +217,16 @@ TEST(EmoiMarkovRun, ShortDriveOnASmallWorld) {
     EXPECT_TRUE(out.estimate.has_value());
     EXPECT_TRUE(out.grid.has_value());
     EXPECT_TRUE(out.estimate->covariance.allFinite());
+    // Every sensor update judges the belief and says why, with the criteria in the diagnostics.
+    EXPECT_TRUE(out.localization.has_value());
+    if (out.localization) {
+      EXPECT_FALSE(out.localization->reason.empty());
+    }
+    int criteria = 0;
+    for (const auto& [name, value] : out.diagnostics.values) {
+      criteria += name == "modes" || name == "belief_area_m2" || name == "peak_mass" ? 1 : 0;
+    }
+    EXPECT_EQ(criteria, 3);
     EXPECT_NEAR(cv::sum(localizer.filter().grid().belief())[0], 1.0, 1e-4);
     // The belief starts concentrated (initial pose): the distortion hypotheses run on its support.
     const DistortionReport& distortion = localizer.filter().last_distortion();

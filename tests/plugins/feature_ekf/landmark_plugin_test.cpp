@@ -68,7 +68,7 @@ TEST_F(FeatureEkfLandmarkPlugin, TracksADriveAndReportsAssociations) {
     start.linear_velocity << drive.truth().velocity, 0.0;
     start.covariance = Matrix6d::Identity() * 9.0;
     plugin->set_pose(start);
-    size_t estimates = 0, records = 0, associated = 0;
+    size_t estimates = 0, records = 0, associated = 0, tracking = 0;
     double last_error = 1e9;
     while (auto e = drive.next()) {
       const UpdateResult r = plugin->update(e->measurement);
@@ -77,6 +77,8 @@ TEST_F(FeatureEkfLandmarkPlugin, TracksADriveAndReportsAssociations) {
         continue;
       }
       ASSERT_TRUE(r.estimate.has_value());
+      ASSERT_TRUE(r.localization.has_value());  // every detection frame is judged (association, NIS)
+      tracking += r.localization->state == LocalizationState::kTracking;
       ++estimates;
       last_error = (r.estimate->pose.translation().head<2>() - e->truth.position).norm();
       EXPECT_LT((r.estimate->linear_velocity.head<2>() - e->truth.velocity).norm(), 2.0);
@@ -94,6 +96,7 @@ TEST_F(FeatureEkfLandmarkPlugin, TracksADriveAndReportsAssociations) {
     EXPECT_GT(records, 10u);
     EXPECT_GT(associated, 10u);
     EXPECT_LT(last_error, 8.0) << model;
+    EXPECT_GT(tracking, estimates * 9 / 10) << model;
   }
 }
 

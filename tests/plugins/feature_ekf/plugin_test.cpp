@@ -102,6 +102,14 @@ TEST_F(FeatureEkfPlugin, BadConfigsNameTheKeyAndTheAllowedRange) {
   message = config_error("  map: building.yaml\n  extraction:\n    range_stddev: 0\n");
   EXPECT_NE(message.find("feature_ekf.extraction.range_stddev"), std::string::npos) << message;
 
+  message = config_error("  map: building.yaml\n  localization:\n    lost_window_scans: 30\n");
+  EXPECT_NE(message.find("feature_ekf.localization.lost_window_scans"), std::string::npos) << message;
+  EXPECT_NE(message.find("[1, 25]"), std::string::npos) << message;  // at most window_scans
+  message = config_error("  map: building.yaml\n  global_search:\n    accept_agreement: 2\n");
+  EXPECT_NE(message.find("feature_ekf.global_search.accept_agreement"), std::string::npos) << message;
+  message = config_error("  map: building.yaml\n  scan_agreement:\n    beam: 5\n");
+  EXPECT_NE(message.find("scan_agreement.beam"), std::string::npos) << message;
+
   message = config_error("  map: building.yaml\n  initial_pose: [1, 2]\n");
   EXPECT_NE(message.find("feature_ekf.initial_pose"), std::string::npos) << message;
 

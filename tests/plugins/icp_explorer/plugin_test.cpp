@@ -207,3 +207,99 @@ TEST(IcpExplorerPlugin, SavesTheMapOnlyIntoTheConfiguredDirectory) {
   }
   if (!::testing::Test::HasFailure()) fs::remove_all(dir);
 }
+
+namespace {
+double diagnostic(const locd::UpdateResult& r, const std::string& name) {
+  for (const auto& [n, v] : r.diagnostics.values)
+    if (n == name) return v;
+  return -1.0;
+}
+
+// Two scans of the toy world, the second 0.8 m on with odometry 0.3 m and 5 degrees short, the
+// intensities multiplied by `gain`.
+std::vector<locd::UpdateResult> two_scans(locd::Localizer& plugin, float gain) {
+  locd::PoseEstimate start;
+  start.pose = locd::Pose2(3.0, 1.2, 0.0).to_isometry();
+  plugin.set_pose(start);
+  locd::Odometry odom;
+  odom.pose = locd::Pose2(0, 0, 0).to_isometry();
+  plugin.update(odom);
+  std::vector<locd::UpdateResult> out;
+  auto first = toy_scan(locd::Pose2(3.0, 1.2, 0.0), 4);
+  for (float& i : first.intensity) i *= gain;
+  out.push_back(plugin.update(first));
+  odom.pose = locd::Pose2(0.5, 0.0, 0.2 - 5.0 * M_PI / 180).to_isometry();
+  odom.header.stamp_ns = 2'000'000'000;
+  plugin.update(odom);
+  auto second = toy_scan(locd::Pose2(3.8, 1.2, 0.2), 5);
+  for (float& i : second.intensity) i *= gain;
+  out.push_back(plugin.update(second));
+  return out;
+}
+}  // namespace
+
+// Raw 0-255 intensities: the scale is estimated (auto, the default) or configured, and the
+// registration is the same as on a 0-1 scale; with the scale forced to 1, rule (a) rejects most pairs.
+TEST(IcpExplorerPlugin, IntensityScaleIsEstimatedOrConfigured) {
+  auto unit = configured(kToyParams);
+  const auto reference = two_scans(*unit, 1.0f);
+  EXPECT_EQ(diagnostic(reference[1], "intensity_scale"), 1.0);
+  for (const std::string scale : {"auto", "255"}) {
+    auto raw = configured(kToyParams + "intensity_scale: " + scale + "\n");
+    const auto results = two_scans(*raw, 215.0f);  // the KITTI pair's range, under a 255 full scale
+    EXPECT_EQ(diagnostic(results[1], "intensity_scale"), 255.0) << scale;
+    ASSERT_TRUE(results[1].estimate && reference[1].estimate);
+    EXPECT_LT((results[1].estimate->pose.translation() - reference[1].estimate->pose.translation()).norm(), 0.01) << scale;
+    EXPECT_LT(diagnostic(results[1], "rejected_intensity"), 0.05 * diagnostic(results[1], "correspondences")) << scale;
+  }
+  auto forced = configured(kToyParams + "intensity_scale: 1\n");
+  const auto broken = two_scans(*forced, 215.0f);
+  EXPECT_GT(diagnostic(broken[1], "rejected_intensity"), diagnostic(broken[1], "correspondences"));
+
+  auto plugin = library()->create();
+  for (const std::string bad : {"0", "-3", "bright"}) {
+    const std::string m = message_of([&] { plugin->configure(locd::PluginContext{}, params("intensity_scale: " + bad)); });
+    EXPECT_NE(m.find("icp_explorer.intensity_scale"), std::string::npos) << bad << ": " << m;
+  }
+}
+
+// The localization state from the registration's criteria: the first scan anchors the map, a
+// registered scan is tracking, a scan of another place where odometry says the robot is does not
+// fit: lost, the odometry prediction published, the map unchanged.
+TEST(IcpExplorerPlugin, LocalizationStateFollowsTheRegistration) {
+  auto plugin = configured(kToyParams);
+  const auto results = two_scans(*plugin, 1.0f);
+  ASSERT_TRUE(results[0].localization && results[1].localization);
+  EXPECT_EQ(results[0].localization->state, locd::LocalizationState::kTracking);
+  EXPECT_NE(results[0].localization->reason.find("first scan"), std::string::npos);
+  EXPECT_EQ(results[1].localization->state, locd::LocalizationState::kTracking) << results[1].localization->reason;
+  EXPECT_EQ(diagnostic(results[1], "converged"), 1.0);
+  const double model_points = diagnostic(results[1], "model_points");
+
+  // An open hall with two crates where the two rooms have free space: nothing like them.
+  std::vector<locd::sim::SurfaceBox> hall{
+      {Eigen::AlignedBox3d(Eigen::Vector3d(-20, -20, -0.2), Eigen::Vector3d(20, 20, 0)), 0.5f, "floor"},
+      {Eigen::AlignedBox3d(Eigen::Vector3d(3.5, 1.8, 0), Eigen::Vector3d(3.8, 2.4, 1.0)), 0.5f, "crate"},
+      {Eigen::AlignedBox3d(Eigen::Vector3d(2.5, 0.8, 0), Eigen::Vector3d(3.5, 1.0, 2.0)), 0.5f, "crate"}};
+  const locd::sim::IndoorWorld hall_world(std::move(hall), {});
+  const locd::sim::Scanner3D scanner(locd::test::coarse_scanner());
+  std::mt19937_64 rng(9);
+  locd::Odometry odom;
+  odom.pose = locd::Pose2(0.9, 0.0, 0.2).to_isometry();
+  odom.header.stamp_ns = 3'000'000'000;
+  plugin->update(odom);
+  const auto lost = plugin->update(scanner.scan(hall_world, locd::Pose2(4.2, 1.3, 0.2).to_isometry(), 0.0, 3'000'000'000, rng).cloud);
+  ASSERT_TRUE(lost.localization && lost.estimate);
+  EXPECT_EQ(lost.localization->state, locd::LocalizationState::kLost)
+      << lost.localization->reason << "; inliers " << diagnostic(lost, "inlier_share") << ", degenerate "
+      << diagnostic(lost, "degenerate_directions");
+  EXPECT_NE(lost.localization->reason.find("does not fit"), std::string::npos) << lost.localization->reason;
+  EXPECT_EQ(diagnostic(lost, "added_to_model"), 0.0);
+  EXPECT_EQ(diagnostic(lost, "model_points"), model_points);
+  // The prediction: the second scan's pose moved as odometry moved since it.
+  const Eigen::Isometry3d odom_then = locd::Pose2(0.5, 0.0, 0.2 - 5.0 * M_PI / 180).to_isometry();
+  const Eigen::Isometry3d predicted = results[1].estimate->pose * odom_then.inverse() * odom.pose;
+  EXPECT_LT((lost.estimate->pose.translation() - predicted.translation()).norm(), 1e-6);
+  // Its covariance is the prior's: at least one odometry leg's (0.5 m / sqrt(3)) in x and y.
+  EXPECT_GT(lost.estimate->covariance(0, 0), 0.08);
+}

@@ -5,12 +5,15 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <random>
 #include <sstream>
 
 #include "localizer.hpp"
 #include "params.hpp"
 #include "locd/emoi_markov/dsm_writer.hpp"
 #include "locd/sdk/errors.hpp"
+#include "locd/sim/evaluation_report.hpp"
+#include "locd/sdk/geometry.hpp"
 #include "locd/sdk/plugin_config.hpp"
 #include "locd/sdk/plugin_loader.hpp"
 
@@ -34,18 +37,33 @@ FourPositionsScenario load_four_positions(const fs::path& file) {
   s.dsm_nodata_fraction = world.number("dsm_nodata_fraction", 0.0, Range::closed(0.0, 0.5));
 
   const Params robot = root.child("robot");
-  robot.expect_only({"id", "path", "speed_mps", "base_height_m"});
+  robot.expect_only({"id", "path", "random_path", "speed_mps", "base_height_m"});
   s.robot_id = robot.text("id", s.robot_id);
-  const YAML::Node path = robot.node()["path"];
-  if (!path || !path.IsSequence() || path.size() < 2) robot.fail("path", "must be a list of at least two [x, y] points");
-  for (const auto& point : path) {
-    if (!point.IsSequence() || point.size() != 2) robot.fail("path", "holds an entry that is not [x, y]");
-    const Eigen::Vector2d p(point[0].as<double>(), point[1].as<double>());
-    if (p.x() < 0 || p.y() < 0 || p.x() > s.world.size_x_m || p.y() > s.world.size_y_m) {
-      robot.fail("path", "point [" + std::to_string(p.x()) + ", " + std::to_string(p.y()) +
-                             "] lies outside the world [0, size_m]");
+  if (robot.node()["random_path"]) {
+    const Params random = robot.child("random_path");
+    random.expect_only({"legs", "leg_m", "max_turn_deg", "margin_m"});
+    s.random_path.legs = static_cast<int>(random.integer("legs", 5, 1, 1000));
+    s.random_path.leg_m = random.number("leg_m", s.random_path.leg_m, Range::open(0.0, 1000.0));
+    s.random_path.max_turn_rad = random.number("max_turn_deg", 90.0, Range::closed(0.0, 180.0)) * M_PI / 180.0;
+    s.random_path.margin_m = random.number("margin_m", s.random_path.margin_m, Range::closed(0.0, 1000.0));
+    if (2 * s.random_path.margin_m + s.random_path.leg_m > std::min(s.world.size_x_m, s.world.size_y_m)) {
+      random.fail("margin_m", "leaves no room for a leg of " + std::to_string(s.random_path.leg_m) +
+                                  " m in the world; allowed: 2 margin_m + leg_m <= the world's shorter side");
     }
-    s.path.push_back(p);
+  }
+  const YAML::Node path = robot.node()["path"];
+  if (s.random_path.legs > 0 && path) robot.fail("random_path", "is given with path; allowed: one of path and random_path");
+  if (s.random_path.legs == 0) {
+    if (!path || !path.IsSequence() || path.size() < 2) robot.fail("path", "must be a list of at least two [x, y] points");
+    for (const auto& point : path) {
+      if (!point.IsSequence() || point.size() != 2) robot.fail("path", "holds an entry that is not [x, y]");
+      const Eigen::Vector2d p(point[0].as<double>(), point[1].as<double>());
+      if (p.x() < 0 || p.y() < 0 || p.x() > s.world.size_x_m || p.y() > s.world.size_y_m) {
+        robot.fail("path", "point [" + std::to_string(p.x()) + ", " + std::to_string(p.y()) +
+                               "] lies outside the world [0, size_m]");
+      }
+      s.path.push_back(p);
+    }
   }
   s.speed_mps = robot.number("speed_mps", s.speed_mps, Range::open(0.0, 50.0));
   s.base_height_m = robot.number("base_height_m", s.base_height_m, Range::closed(0.0, 5.0));
@@ -82,14 +100,39 @@ FourPositionsScenario load_four_positions(const fs::path& file) {
   return s;
 }
 
+std::vector<Eigen::Vector2d> path_for_seed(const FourPositionsScenario& scenario, uint64_t seed) {
+  const RandomPathConfig& random = scenario.random_path;
+  if (random.legs <= 0) return scenario.path;
+  std::mt19937_64 rng(seed * 15485863 + 11);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const double margin = random.margin_m;
+  const Eigen::Vector2d low(margin, margin), high(scenario.world.size_x_m - margin, scenario.world.size_y_m - margin);
+  auto inside = [&](const Eigen::Vector2d& p) { return (p.array() >= low.array()).all() && (p.array() <= high.array()).all(); };
+  constexpr int kAttempts = 1000;
+  for (int attempt = 0; attempt < kAttempts; ++attempt) {
+    std::vector<Eigen::Vector2d> path{low + (high - low).cwiseProduct(Eigen::Vector2d(unit(rng), unit(rng)))};
+    double heading = (2.0 * unit(rng) - 1.0) * M_PI;
+    for (int leg = 0; leg < random.legs; ++leg) {
+      if (leg > 0) heading += (2.0 * unit(rng) - 1.0) * random.max_turn_rad;
+      const Eigen::Vector2d next = path.back() + random.leg_m * Eigen::Vector2d(std::cos(heading), std::sin(heading));
+      if (!inside(next)) break;
+      path.push_back(next);
+    }
+    if (static_cast<int>(path.size()) == random.legs + 1) return path;
+  }
+  throw ConfigError("random_path: no path of " + std::to_string(random.legs) + " legs of " +
+                    std::to_string(random.leg_m) + " m stays " + std::to_string(margin) + " m inside the world");
+}
+
 SimulatedRun build_run(const FourPositionsScenario& scenario, uint64_t seed) {
+  SimulatedRun run;
+  run.path = path_for_seed(scenario, seed);
   std::vector<Eigen::Vector2d> keep_clear;
-  for (size_t i = 0; i + 1 < scenario.path.size(); ++i) {
-    const Eigen::Vector2d a = scenario.path[i], b = scenario.path[i + 1];
+  for (size_t i = 0; i + 1 < run.path.size(); ++i) {
+    const Eigen::Vector2d a = run.path[i], b = run.path[i + 1];
     const int steps = std::max(1, static_cast<int>(std::ceil((b - a).norm())));
     for (int k = 0; k <= steps; ++k) keep_clear.push_back(a + (b - a) * (static_cast<double>(k) / steps));
   }
-  SimulatedRun run;
   run.world = generate_world(scenario.world, seed, keep_clear);
   run.dsm = noisy_dsm(run.world.surface, scenario.dsm_noise_m, scenario.dsm_nodata_fraction, seed);
   return run;
@@ -97,7 +140,7 @@ SimulatedRun build_run(const FourPositionsScenario& scenario, uint64_t seed) {
 
 void simulate_measurements(const FourPositionsScenario& scenario, const SimulatedRun& run, uint64_t seed,
                            const std::function<bool(const Measurement&, const Eigen::Isometry3d&)>& sink) {
-  TerrainRobot robot(run.world.terrain, scenario.path, scenario.speed_mps, scenario.base_height_m, scenario.odometry,
+  TerrainRobot robot(run.world.terrain, run.path, scenario.speed_mps, scenario.base_height_m, scenario.odometry,
                      scenario.imu, seed * 7919 + 1);
   std::mt19937_64 laser_rng(seed * 104729 + 3);
   const double dt = 0.01;
@@ -124,11 +167,17 @@ void simulate_measurements(const FourPositionsScenario& scenario, const Simulate
 
 namespace {
 
+// NEES of one estimate against the truth (the shared measure, locd/sim/consistency.hpp).
+Nees nees_of(const PoseEstimate& estimate, const Eigen::Isometry3d& truth) {
+  return nees(Pose2::from_isometry(estimate.pose), Pose2::from_isometry(truth), planar_covariance(estimate.covariance));
+}
+
 RunResult drive(const FourPositionsScenario& scenario, const SimulatedRun& run, uint64_t seed, Localizer& localizer,
                 const locd::emoi::EmoiMarkovFilter* core) {
   RunResult result;
   result.seed = seed;
   double update_ms_total = 0.0;
+  LocalizationState state = LocalizationState::kUnknown;  // the plugin's last judgement
   simulate_measurements(scenario, run, seed, [&](const Measurement& m, const Eigen::Isometry3d& truth) {
     const auto t0 = std::chrono::steady_clock::now();
     UpdateResult out;
@@ -137,18 +186,61 @@ RunResult drive(const FourPositionsScenario& scenario, const SimulatedRun& run, 
     } catch (const InputError&) {
       return false;
     }
+    const double elapsed_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (out.localization) state = out.localization->state;
+    if (!out.estimate) return false;
+    const Nees n = nees_of(*out.estimate, truth);
+    const ConsistencyBounds& bound = ConsistencyBounds::get();
+    if (!result.updates.empty() || out.grid) {
+      PoseConsistency& c = result.consistency;
+      ++c.poses;
+      c.nees_position_sum += n.position;
+      c.nees_heading_sum += n.heading.value_or(0.0);
+      c.outside_99_position += n.position > bound.position_99 ? 1 : 0;
+      c.outside_99_heading += n.heading.value_or(0.0) > bound.heading_99 ? 1 : 0;
+      c.samples.push_back({n, state});
+      const bool confident = state == LocalizationState::kTracking || state == LocalizationState::kUnknown;
+      c.confidently_wrong += confident && n.position > bound.position_99 ? 1 : 0;
+      if (state == LocalizationState::kTracking) {
+        ++c.tracking;
+        c.nees_position_tracking_sum += n.position;
+      }
+    }
     // A sensor update is the one that publishes the belief grid.
-    if (!out.grid || !out.estimate) return false;
-    update_ms_total += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (!out.grid) return false;
+    update_ms_total += elapsed_ms;
     UpdateRecord record;
     record.update = static_cast<int>(result.updates.size()) + 1;
     record.time_s = static_cast<double>(header_of(m).stamp_ns) * 1e-9;
     record.truth = truth.translation().head<2>();
     record.mode = out.estimate->pose.translation().head<2>();
     record.error_m = (record.mode - record.truth).norm();
+    record.nees_position = n.position;
+    record.nees_heading = n.heading.value_or(0.0);
+    if (out.localization) {
+      record.state = out.localization->state;
+      record.reason = out.localization->reason;
+    }
     for (const auto& [name, value] : out.diagnostics.values) {
       if (name.rfind("coverage_r", 0) == 0) record.coverage.push_back(value);
       if (name.rfind("emoi_r", 0) == 0) record.robot_emoi.push_back(value);
+      if (name == "peak_mass") record.peak_mass = value;
+      if (name == "modes") record.modes = static_cast<int>(value);
+      if (name == "belief_area_m2") record.area_m2 = value;
+      if (name == "fit_rms_m") record.fit_rms_m = value;
+    }
+    if (core) {
+      const auto& grid = core->grid();
+      record.truth_mass = locd::emoi::mass_within(grid.belief(), grid.occupied(), grid.geometry(), record.truth,
+                                                  scenario.success_radius_m);
+      record.cell_maximum_error_m = (core->summary().mode - record.truth).norm();
+      const auto& assessment = core->assessment();
+      if (!assessment.modes.empty()) {
+        const auto& mode = assessment.modes.front();
+        const Eigen::Vector2d e = record.mode - record.truth, d = mode.mean - record.mode;
+        const Eigen::Matrix2d P = mode.covariance + d * d.transpose();
+        record.nees_main_mode = e.dot(P.ldlt().solve(e));
+      }
     }
     int row = 0, col = 0;
     if (core && core->full_disk_layers()) {
@@ -255,16 +347,37 @@ int locsim_run_four_positions(const fs::path& file, const std::vector<fs::path>&
     if (!json) {
       out << "seed " << r.seed << (r.success ? "  ok  " : "  FAIL") << "  error after each update [m]:";
       for (const auto& u : r.updates) out << " " << u.error_m;
+      if (!r.updates.empty()) {
+        out << "  state: " << localization_state_name(r.updates.back().state) << " (" << r.updates.back().reason << ")";
+      }
       out << "\n" << std::flush;
     }
     results.push_back(std::move(r));
   }
   const double rate = seeds.empty() ? 0.0 : static_cast<double>(successes) / static_cast<double>(seeds.size());
+  // The state after the last update against the outcome; NEES over every pose after the first update.
+  int wrong = 0, wrong_flagged = 0, right_flagged = 0;
+  PoseConsistency poses;
+  for (const RunResult& r : results) {
+    const bool flagged = !r.updates.empty() && (r.updates.back().state == LocalizationState::kUncertain ||
+                                                r.updates.back().state == LocalizationState::kLost);
+    wrong += r.success ? 0 : 1;
+    wrong_flagged += !r.success && flagged ? 1 : 0;
+    right_flagged += r.success && flagged ? 1 : 0;
+    poses.poses += r.consistency.poses;
+    poses.nees_position_sum += r.consistency.nees_position_sum;
+    poses.outside_99_position += r.consistency.outside_99_position;
+    poses.confidently_wrong += r.consistency.confidently_wrong;
+    poses.samples.insert(poses.samples.end(), r.consistency.samples.begin(), r.consistency.samples.end());
+  }
+  const ConsistencySummary consistency = summarize_consistency(poses.samples);
   if (json) {
     std::vector<std::vector<double>> errors;
+    std::vector<std::string> states;
     for (const RunResult& r : results) {
       errors.emplace_back();
       for (const auto& u : r.updates) errors.back().push_back(u.error_m);
+      states.push_back(r.updates.empty() ? "unknown" : localization_state_name(r.updates.back().state));
     }
     const nlohmann::ordered_json summary = {{"scenario", scenario.name},
                                             {"plugin", "emoi_markov"},
@@ -273,11 +386,19 @@ int locsim_run_four_positions(const fs::path& file, const std::vector<fs::path>&
                                             {"success_rate", rate},
                                             {"success_radius_m", scenario.success_radius_m},
                                             {"updates", scenario.updates},
-                                            {"errors_m", errors}};
+                                            {"errors_m", errors},
+                                            {"final_states", states},
+                                            {"wrong_flagged", wrong_flagged},
+                                            {"right_flagged", right_flagged},
+                                            {"consistency", consistency_json(consistency)}};
     out << summary.dump() << "\n";
   } else {
     out << "success: " << successes << " / " << seeds.size() << " (belief maximum within " << scenario.success_radius_m
         << " m of the truth after update " << scenario.updates << ")\n";
+    out << "state after the last update: uncertain or lost in " << wrong_flagged << " of " << wrong
+        << " wrong runs, in " << right_flagged << " of " << successes << " right runs (false alarms)\n";
+    out << "every pose after the first update:\n";
+    write_consistency_summary(out, consistency);
   }
   return complete ? 0 : 1;
 }

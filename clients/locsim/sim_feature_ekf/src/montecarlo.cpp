@@ -12,6 +12,7 @@
 #include "locd/sdk/errors.hpp"
 #include "locd/sdk/plugin_config.hpp"
 #include "locd/sdk/plugin_loader.hpp"
+#include "locd/sim/evaluation_report.hpp"
 #include "locd/sim_feature_ekf/road_sign_drive.hpp"
 
 namespace locd::sim::road_signs {
@@ -70,6 +71,8 @@ MonteCarloResult run_montecarlo(const MonteCarloOptions& options) {
     StrategyResult s;
     s.strategy = strategy;
     std::vector<double> pooled;
+    std::vector<ConsistencySample> consistency;
+    std::vector<StateSample> states;  // runs one after another on one time line, each shifted
     std::vector<std::vector<double>> per_bin;
     std::vector<size_t> bin_wrong, bin_detections;
     for (int run = 0; run < options.runs; ++run) {
@@ -81,6 +84,8 @@ MonteCarloResult run_montecarlo(const MonteCarloOptions& options) {
       start.covariance = Matrix6d::Identity() * 1e-6;
       start.covariance(0, 0) = start.covariance(1, 1) = stddev[0] * stddev[0];
       plugin->set_pose(start);
+      LocalizationState state = LocalizationState::kUnknown;
+      const double run_offset = states.empty() ? 0.0 : states.back().t + 1.0;
       while (auto e = sim.next()) {
         UpdateResult r;
         try {
@@ -89,8 +94,14 @@ MonteCarloResult run_montecarlo(const MonteCarloOptions& options) {
           ++s.rejected;
           continue;
         }
+        if (r.localization) state = r.localization->state;
         if (!r.estimate) continue;
         const double error = (r.estimate->pose.translation().head<2>() - e->truth.position).norm();
+        const Eigen::Vector2d p = r.estimate->pose.translation().head<2>();
+        consistency.push_back({nees({p.x(), p.y(), 0.0}, {e->truth.position.x(), e->truth.position.y(), 0.0},
+                                    planar_covariance(r.estimate->covariance)),
+                               state});
+        states.push_back({run_offset + e->truth.time, error, state});
         const size_t bin = static_cast<size_t>(e->truth.time / options.bin_s);
         if (per_bin.size() <= bin) {
           per_bin.resize(bin + 1);
@@ -114,6 +125,8 @@ MonteCarloResult run_montecarlo(const MonteCarloOptions& options) {
         }
       }
     }
+    s.consistency = summarize_consistency(consistency);
+    s.localization = evaluate_states(states, {options.error_threshold_m, std::nullopt});
     s.cep50_m = percentile(pooled, 0.5);
     s.cep95_m = percentile(pooled, 0.95);
     s.wrong_association_rate = s.detections ? static_cast<double>(s.wrong) / static_cast<double>(s.detections) : 0.0;
@@ -142,7 +155,9 @@ void write_montecarlo_json(std::ostream& out, const MonteCarloResult& result) {
                               {"rejected", s.rejected},
                               {"cep50_over_time_m", s.cep50_over_time},
                               {"cep95_over_time_m", s.cep95_over_time},
-                              {"wrong_association_probability_over_time", s.wrong_over_time}};
+                              {"wrong_association_probability_over_time", s.wrong_over_time},
+                              {"consistency", consistency_json(s.consistency)},
+                              {"localization", state_json(s.localization)}};
   }
   const nlohmann::ordered_json json = {
       {"scenario", result.scenario}, {"runs", result.runs}, {"bin_s", result.bin_s}, {"strategies", strategies}};
@@ -156,6 +171,11 @@ void write_montecarlo_summary(std::ostream& out, const MonteCarloResult& result)
   for (const StrategyResult& s : result.strategies) {
     out << std::setw(18) << s.strategy << std::setw(10) << s.cep50_m << std::setw(10) << s.cep95_m << std::setw(12)
         << s.max_error_m << s.wrong_association_rate << " (" << s.wrong << " of " << s.detections << ")\n";
+  }
+  for (const StrategyResult& s : result.strategies) {
+    out << s.strategy << ":\n";
+    write_consistency_summary(out, s.consistency);
+    write_state_summary(out, s.localization);
   }
 }
 

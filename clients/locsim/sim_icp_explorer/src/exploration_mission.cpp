@@ -2,6 +2,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "locd/sim/evaluation_report.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -82,6 +84,7 @@ ExplorationMissionResult run_exploration_mission(const ExplorationScenario& scen
   start.header = {1, "map"};  // before the first scan, stamped so a remote localizer can acknowledge it
   start.pose = truth.to_isometry();
   localizer.set_pose(start);
+  LocalizationState state = LocalizationState::kUnknown;
   for (int k = 0; k < scenario.max_scans; ++k) {
     const int64_t stamp = (k + 1) * 30'000'000'000LL;
     localizer.update(odometry.arrive(truth, stamp - 1'000'000, rng));
@@ -93,7 +96,10 @@ ExplorationMissionResult run_exploration_mission(const ExplorationScenario& scen
     record.update_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
     record.truth = truth;
     record.coverage = coverage.ratio();
+    if (out.localization) state = out.localization->state;
+    record.state = state;
     if (out.estimate) {
+      record.nees = nees(Pose2::from_isometry(out.estimate->pose), truth, planar_covariance(out.estimate->covariance));
       record.error_m = (out.estimate->pose.translation() - truth.to_isometry().translation()).norm();
       record.error_deg =
           Eigen::AngleAxisd(out.estimate->pose.linear().transpose() * truth.to_isometry().linear()).angle() * 180 / M_PI;
@@ -125,13 +131,22 @@ double percentile(std::vector<double> v, double q) {
   std::sort(v.begin(), v.end());
   return v[static_cast<size_t>(std::min<double>(v.size() - 1, std::floor(q * (v.size() - 1) + 0.5)))];
 }
+// An error below it is "small" for the state's false alarms (registration accuracy is centimetres).
+constexpr double kSmallErrorM = 0.1;
+
 struct Summary {
   double max_error_m = 0, max_error_deg = 0, mean_error_m = 0, update_p50 = 0, update_p99 = 0;
+  ConsistencySummary consistency;
+  StateSummary localization;
 };
 Summary summarize(const ExplorationMissionResult& r) {
   Summary s;
   std::vector<double> ms;
+  std::vector<ConsistencySample> consistency;
+  std::vector<StateSample> states;
   for (const auto& scan : r.scans) {
+    if (scan.nees) consistency.push_back({*scan.nees, scan.state});
+    states.push_back({static_cast<double>(states.size()), scan.error_m, scan.state});
     s.max_error_m = std::max(s.max_error_m, scan.error_m);
     s.max_error_deg = std::max(s.max_error_deg, scan.error_deg);
     s.mean_error_m += scan.error_m / r.scans.size();
@@ -139,6 +154,8 @@ Summary summarize(const ExplorationMissionResult& r) {
   }
   s.update_p50 = percentile(ms, 0.5);
   s.update_p99 = percentile(ms, 0.99);
+  s.consistency = summarize_consistency(consistency);
+  s.localization = evaluate_states(states, {kSmallErrorM, std::nullopt});
   return s;
 }
 }  // namespace
@@ -155,7 +172,8 @@ void write_exploration_json(std::ostream& out, const ExplorationScenario& scenar
       {"path_length_m", r.path_length},     {"reference_voxels", r.reference_voxels},
       {"max_error_m", s.max_error_m},       {"mean_error_m", s.mean_error_m},
       {"max_error_deg", s.max_error_deg},   {"update_ms_p50", s.update_p50},
-      {"update_ms_p99", s.update_p99},      {"coverage_per_scan", coverage_per_scan}};
+      {"update_ms_p99", s.update_p99},      {"coverage_per_scan", coverage_per_scan},
+      {"consistency", consistency_json(s.consistency)}, {"localization", state_json(s.localization)}};
   out << json.dump() << "\n";
 }
 
@@ -167,6 +185,8 @@ void write_exploration_summary(std::ostream& out, const ExplorationScenario& sce
       << (r.done ? "; explorer done" : "") << "), path " << r.path_length << " m\n"
       << "registration error: max " << s.max_error_m << " m / " << s.max_error_deg << " deg, mean " << s.mean_error_m
       << " m; update p50 " << s.update_p50 << " ms, p99 " << s.update_p99 << " ms\n";
+  write_consistency_summary(out, s.consistency);
+  write_state_summary(out, s.localization);
 }
 
 int locsim_run_exploration(const fs::path& file, const std::vector<fs::path>& plugin_directories,

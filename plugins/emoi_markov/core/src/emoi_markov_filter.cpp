@@ -5,6 +5,7 @@
 #include <limits>
 #include <sstream>
 
+#include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
 #include "locd/emoi_markov/emoi_cache.hpp"
@@ -74,7 +75,8 @@ EmoiMarkovFilter::EmoiMarkovFilter(const EmoiMarkovConfig& config, ElevationMap 
     layers_ = std::move(source.layers);
     grid_ = std::make_unique<MarkovGrid>(dsm.geometry, layers_support(*layers_));
   } else {
-    matcher_ = std::make_unique<MaskedEmoiMatcher>(dsm, config.radii_m, config.match_resolution_m);
+    matcher_ = std::make_unique<MaskedEmoiMatcher>(dsm, config.radii_m, config.match_resolution_m,
+                                                   config.sensor.shape_edge_step_m);
     grid_ = std::make_unique<MarkovGrid>(dsm.geometry, cells_with_data(dsm));
   }
   config_.distortion.scale_stddev = config.odometry_error;
@@ -84,6 +86,8 @@ EmoiMarkovFilter::EmoiMarkovFilter(const EmoiMarkovConfig& config, ElevationMap 
   config_.local_map.resolution = dsm.geometry.resolution;
   local_map_ = std::make_unique<LocalElevationMap>(config_.local_map);
   summary_ = grid_->summary();
+  assessment_.estimate = summary_.mode;
+  assessment_.localization = {LocalizationState::kLost, "no sensor update yet"};
 }
 
 void EmoiMarkovFilter::set_pose(const PoseEstimate& pose) {
@@ -109,9 +113,23 @@ void EmoiMarkovFilter::set_pose(const PoseEstimate& pose) {
     const double stddev = std::sqrt(std::max({pose.covariance(0, 0), pose.covariance(1, 1), 0.0}));
     grid_->set_gaussian(xy, stddev);
     summary_ = grid_->summary();
+    assessment_ = assess_belief(grid_->belief(), grid_->occupied(), grid_->geometry(), config_.assessment);
+    fit_cells_.clear();
+    fit_residual_.clear();
+    apply_fit(assessment_, fit_at(assessment_.estimate), config_.assessment);
     pending_shift_.setZero();
     pending_travel_m_ = 0.0;
   }
+}
+
+double EmoiMarkovFilter::fit_at(const Eigen::Vector2d& position) const {
+  int row = 0, col = 0;
+  if (fit_residual_.empty() || !matcher_->surface().geometry.index_of(position, row, col)) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  const auto at = std::find(fit_cells_.begin(), fit_cells_.end(), cv::Point(col, row));
+  if (at == fit_cells_.end()) return std::numeric_limits<double>::quiet_NaN();
+  return std::sqrt(static_cast<double>(fit_residual_[static_cast<size_t>(at - fit_cells_.begin())]));
 }
 
 Eigen::Isometry3d EmoiMarkovFilter::base_in_odom() const {
@@ -195,6 +213,11 @@ std::optional<FilterUpdateReport> EmoiMarkovFilter::after_insert() {
   }
   summary_ = grid_->summary();
   ++sensor_updates_;
+  assessment_ = assess_belief(grid_->belief(), grid_->occupied(), grid_->geometry(), config_.assessment);
+  apply_fit(assessment_, fit_at(assessment_.estimate), config_.assessment);
+  if (report.motion.reset || (report.sensor.applied && !(report.sensor.evidence > 0.0))) {
+    assessment_.localization = {LocalizationState::kLost, "belief reset to uniform: no mass left after the update"};
+  }
   report.robot_emoi = last_robot_emoi_;
   report.distortion = distortion_;
   return report;
@@ -247,6 +270,8 @@ EmoiMarkovFilter::WindowLikelihood EmoiMarkovFilter::masked_likelihood(const cv:
         support_likelihood(*matcher_, patch_under, hypotheses_, config_.distortion, config_.sensor, previous_coarse,
                            matcher_->pool(grid_->belief(), grid_->occupied()), shift, residual);
     if (!sparse.cells.empty()) {
+      fit_cells_ = sparse.cells;
+      fit_residual_ = sparse.best_shape_residual;
       distortion_ = sparse.report;
       weights = sparse.weights;
       keep_robot_side(sparse.identity);
@@ -266,6 +291,8 @@ EmoiMarkovFilter::WindowLikelihood EmoiMarkovFilter::masked_likelihood(const cv:
       return out;
     }
   }
+  fit_cells_.clear();
+  fit_residual_.clear();
   last_match_ = matcher_->match(patch_under(Eigen::Matrix2d::Identity()));
   keep_robot_side(*last_match_);
   cv::Mat_<float> coarse = matcher_->coarse_log_likelihood(*last_match_, config_.sensor, &weights);
@@ -279,7 +306,7 @@ PoseEstimate EmoiMarkovFilter::estimate(int64_t stamp_ns) const {
   PoseEstimate out;
   out.header.stamp_ns = stamp_ns;
   out.header.frame_id = "map";
-  const Eigen::Vector2d xy = summary_.mode + pending_shift_;
+  const Eigen::Vector2d xy = assessment_.estimate + pending_shift_;
   double z = 0.0;
   int row = 0, col = 0;
   if (grid_->geometry().index_of(xy, row, col) && std::isfinite(dsm_elevation_(row, col))) {
@@ -294,7 +321,18 @@ PoseEstimate EmoiMarkovFilter::estimate(int64_t stamp_ns) const {
   out.pose = isometry_from_xyz_rpy(xy.x(), xy.y(), z, roll, pitch, map_heading());
   out.covariance = Matrix6d::Zero();
   const double drift = config_.odometry_error * pending_travel_m_;
-  out.covariance.block<2, 2>(0, 0) = summary_.covariance + Eigen::Matrix2d::Identity() * drift * drift;
+  // The belief's second moment about the estimate (the summary's is about the maximum cell).
+  const Eigen::Vector2d from_mode = summary_.mean - summary_.mode, from_estimate = summary_.mean - assessment_.estimate;
+  // About the mean first; its eigenvalues kept at least the cell's own extent (the subtraction
+  // rounds in float for a wide belief).
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> about_mean(summary_.covariance -
+                                                                  from_mode * from_mode.transpose());
+  const double cell_variance = grid_->geometry().resolution * grid_->geometry().resolution / 12.0;
+  const Eigen::Matrix2d about_estimate =
+      about_mean.eigenvectors() * about_mean.eigenvalues().cwiseMax(cell_variance).asDiagonal() *
+          about_mean.eigenvectors().transpose() +
+      from_estimate * from_estimate.transpose();
+  out.covariance.block<2, 2>(0, 0) = about_estimate + Eigen::Matrix2d::Identity() * drift * drift;
   out.covariance(2, 2) = kHeightVariance;
   out.covariance(3, 3) = out.covariance(4, 4) = kTiltVariance;
   out.covariance(5, 5) = kHeadingStddev * kHeadingStddev;

@@ -14,7 +14,8 @@ namespace {
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 }
 
-MaskedEmoiMatcher::MaskedEmoiMatcher(const ElevationMap& dsm, std::vector<double> radii_m, double match_resolution_m)
+MaskedEmoiMatcher::MaskedEmoiMatcher(const ElevationMap& dsm, std::vector<double> radii_m, double match_resolution_m,
+                                     double shape_edge_step_m)
     : radii_m_(std::move(radii_m)) {
   const double res = dsm.geometry.resolution;
   factor_ = std::max(1, static_cast<int>(std::lround(match_resolution_m / res)));
@@ -69,6 +70,26 @@ MaskedEmoiMatcher::MaskedEmoiMatcher(const ElevationMap& dsm, std::vector<double
       if (!std::isfinite(coarse_.elevation(r, c))) continue;
       filled_(r, c) = static_cast<float>(coarse_.elevation(r, c) - reference_);
       valid_(r, c) = 1.0f;
+    }
+  }
+  // The shape residual's cells: data, and (with shape_edge_step_m) no step above it to a
+  // neighbour with data.
+  shape_valid_ = valid_.clone();
+  if (shape_edge_step_m > 0.0) {
+    for (int r = 0; r < rows; ++r) {
+      for (int c = 0; c < cols; ++c) {
+        if (valid_(r, c) == 0.0f) continue;
+        float low = coarse_.elevation(r, c), high = low;
+        for (int dr = -1; dr <= 1; ++dr) {
+          for (int dc = -1; dc <= 1; ++dc) {
+            const int rr = r + dr, cc = c + dc;
+            if (rr < 0 || cc < 0 || rr >= rows || cc >= cols || valid_(rr, cc) == 0.0f) continue;
+            low = std::min(low, coarse_.elevation(rr, cc));
+            high = std::max(high, coarse_.elevation(rr, cc));
+          }
+        }
+        if (high - low > shape_edge_step_m) shape_valid_(r, c) = 0.0f;
+      }
     }
   }
   const cv::Mat nodata = (valid_ == 0.0f) / 255;  // 1 where no data

@@ -21,10 +21,10 @@ struct detail::DirectSumTerms {
   std::vector<long> linear;         // row_offset * columns + column_offset
   std::vector<float> r2_m;          // r^2, m^2
   std::vector<float> robot_value;   // the robot's elevation at the cell (T)
+  std::vector<float> robot_square;  // T^2
   std::vector<size_t> bucket_end;   // per bucket (radii in ascending order): one past its last term
   // Per bucket, sum r^2 and the count: what the data-mask sums give where every cell has data.
   std::vector<float> bucket_moment, bucket_count;
-  double robot_sum = 0.0, robot_square = 0.0;  // sum T, sum T^2 over every term
   size_t size() const { return linear.size(); }
 };
 
@@ -55,33 +55,49 @@ inline float moment_sum(const float* e, const DirectSumTerms& terms, size_t& t, 
   return (part[0] + part[1]) + (part[2] + part[3]);
 }
 
-// One bucket where every cell has data, with the shape sums gathered in the same pass (two
-// partial sums each): returns sum r^2 e and adds sum d, sum d^2, sum T d to sums.
-inline float moment_and_shape_sum(const float* e, float ground, const DirectSumTerms& terms, size_t& t, size_t end,
-                                  CellSums& sums) {
+// One bucket where every cell has data, with the shape sums gathered in the same pass over the
+// cells the shape counts (weight w: 1, or 0 at the DSM's edges; two partial sums each): returns
+// sum r^2 e and adds sum w d, sum w d^2, sum w T d, sum w T, sum w T^2, sum w to sums.
+inline float moment_and_shape_sum(const float* e, const float* w, float ground, const DirectSumTerms& terms,
+                                  size_t& t, size_t end, CellSums& sums) {
   float moment[2] = {0.0f, 0.0f}, elevation[2] = {0.0f, 0.0f}, square[2] = {0.0f, 0.0f}, cross[2] = {0.0f, 0.0f};
+  float robot[2] = {0.0f, 0.0f}, robot_square[2] = {0.0f, 0.0f}, count[2] = {0.0f, 0.0f};
   for (; t + 2 <= end; t += 2) {
-    const float v0 = e[terms.linear[t]], v1 = e[terms.linear[t + 1]];
+    const long i0 = terms.linear[t], i1 = terms.linear[t + 1];
+    const float v0 = e[i0], v1 = e[i1], w0 = w[i0], w1 = w[i1];
     const float d0 = v0 - ground, d1 = v1 - ground;
     moment[0] += terms.r2_m[t] * v0;
     moment[1] += terms.r2_m[t + 1] * v1;
-    elevation[0] += d0;
-    elevation[1] += d1;
-    square[0] += d0 * d0;
-    square[1] += d1 * d1;
-    cross[0] += terms.robot_value[t] * d0;
-    cross[1] += terms.robot_value[t + 1] * d1;
+    elevation[0] += w0 * d0;
+    elevation[1] += w1 * d1;
+    square[0] += w0 * d0 * d0;
+    square[1] += w1 * d1 * d1;
+    cross[0] += w0 * terms.robot_value[t] * d0;
+    cross[1] += w1 * terms.robot_value[t + 1] * d1;
+    robot[0] += w0 * terms.robot_value[t];
+    robot[1] += w1 * terms.robot_value[t + 1];
+    robot_square[0] += w0 * terms.robot_square[t];
+    robot_square[1] += w1 * terms.robot_square[t + 1];
+    count[0] += w0;
+    count[1] += w1;
   }
   for (; t < end; ++t) {
-    const float v = e[terms.linear[t]], d = v - ground;
+    const long i = terms.linear[t];
+    const float v = e[i], d = v - ground, weight = w[i];
     moment[0] += terms.r2_m[t] * v;
-    elevation[0] += d;
-    square[0] += d * d;
-    cross[0] += terms.robot_value[t] * d;
+    elevation[0] += weight * d;
+    square[0] += weight * d * d;
+    cross[0] += weight * terms.robot_value[t] * d;
+    robot[0] += weight * terms.robot_value[t];
+    robot_square[0] += weight * terms.robot_square[t];
+    count[0] += weight;
   }
   sums.elevation += elevation[0] + elevation[1];
   sums.elevation_square += square[0] + square[1];
   sums.cross += cross[0] + cross[1];
+  sums.robot += robot[0] + robot[1];
+  sums.robot_square += robot_square[0] + robot_square[1];
+  sums.shape_count += count[0] + count[1];
   return moment[0] + moment[1];
 }
 
@@ -157,14 +173,11 @@ DirectSumTerms MaskedEmoiMatcher::direct_sum_terms(const cv::Mat_<float>& patch,
       terms.linear.push_back(static_cast<long>(term.dr) * cols + term.dc);
       terms.r2_m.push_back(static_cast<float>(term.r2_m));
       terms.robot_value.push_back(patch(patch_radius_ + term.dr, patch_radius_ + term.dc));
+      terms.robot_square.push_back(terms.robot_value.back() * terms.robot_value.back());
       terms.bucket_moment[b] += terms.r2_m.back();
       terms.bucket_count[b] += 1.0f;
     }
     terms.bucket_end[b] = t;
-  }
-  for (const float v : terms.robot_value) {
-    terms.robot_sum += v;
-    terms.robot_square += static_cast<double>(v) * v;
   }
   return terms;
 }
@@ -190,6 +203,7 @@ void MaskedEmoiMatcher::cell_match(const cv::Point& x, const DirectSumTerms& ter
   const bool all_data = reach_has_only_data(x);
   const float* elevation = filled_.ptr<float>(0);
   const float* valid = valid_.ptr<float>(0);
+  const float* shape_valid = shape_valid_.ptr<float>(0);
   const auto on_map = [&](size_t t) {
     if (inside) return true;
     const int r = x.y + terms.row_offset[t], c = x.x + terms.column_offset[t];
@@ -200,8 +214,9 @@ void MaskedEmoiMatcher::cell_match(const cv::Point& x, const DirectSumTerms& ter
   for (size_t b = 0; b < by_radius.size(); ++b) {
     const size_t end = terms.bucket_end[b];
     if (all_data) {
-      sums.moment_elevation += shape ? moment_and_shape_sum(elevation + centre, static_cast<float>(ground), terms, t, end, sums)
-                                     : moment_sum(elevation + centre, terms, t, end);
+      sums.moment_elevation +=
+          shape ? moment_and_shape_sum(elevation + centre, shape_valid + centre, static_cast<float>(ground), terms, t, end, sums)
+                : moment_sum(elevation + centre, terms, t, end);
       sums.moment += terms.bucket_moment[b];
       sums.count += terms.bucket_count[b];
     } else {
@@ -225,15 +240,11 @@ void MaskedEmoiMatcher::cell_match(const cv::Point& x, const DirectSumTerms& ter
     }
   }
   if (!shape) return;
-  if (all_data) {
-    sums.robot = terms.robot_sum;
-    sums.robot_square = terms.robot_square;
-    sums.shape_count = static_cast<double>(terms.size());
-  } else {
+  if (!all_data) {
     for (size_t q = 0; q < terms.size(); ++q) {
       if (!on_map(q)) continue;
       const long index = centre + terms.linear[q];
-      if (valid[index] == 0.0f) continue;
+      if (shape_valid[index] == 0.0f) continue;
       const double d = elevation[index] - ground, v = terms.robot_value[q];
       sums.elevation += d;
       sums.elevation_square += d * d;

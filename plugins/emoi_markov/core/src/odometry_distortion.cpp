@@ -147,6 +147,15 @@ SupportLikelihood support_likelihood(const MaskedEmoiMatcher& matcher,
   bool identity_seen = false;
   for (const DistortionHypothesis& h : hypotheses) {
     MaskedEmoiMatcher::Match match = matcher.match_at(patch_under(h.transform), out.cells, sensor.shape_sigma_m > 0.0);
+    if (!match.shape_residual.empty()) {
+      if (out.best_shape_residual.empty()) {
+        out.best_shape_residual.assign(out.cells.size(), std::numeric_limits<float>::quiet_NaN());
+      }
+      for (size_t i = 0; i < out.cells.size(); ++i) {
+        const float r = match.shape_residual(0, static_cast<int>(i));
+        if (std::isfinite(r) && !(out.best_shape_residual[i] <= r)) out.best_shape_residual[i] = r;
+      }
+    }
     const bool identity = !identity_seen && h.transform.isApprox(Eigen::Matrix2d::Identity(), 1e-12);
     cv::Mat_<float> l = matcher.coarse_log_likelihood(match, sensor, identity ? &out.weights : nullptr);
     cv::exp(l, l);

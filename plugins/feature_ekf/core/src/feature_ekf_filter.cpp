@@ -1,5 +1,7 @@
 #include "locd/feature_ekf/feature_ekf_filter.hpp"
 
+#include <Eigen/Eigenvalues>
+
 #include "locd/feature_ekf/feature_measurement_model.hpp"
 
 namespace locd::feature_ekf {
@@ -23,22 +25,44 @@ bool FeatureEkfFilter::apply_odometry(const Pose2& odometry_pose, int64_t stamp_
   const double dt = 1e-9 * static_cast<double>(stamp_ns - last_odometry_stamp_ns_);
   last_odometry_pose_ = odometry_pose;
   last_odometry_stamp_ns_ = stamp_ns;
+  last_control_.reset();
   if (!previous || dt <= 0.0 || dt > config_.max_odometry_gap) return false;
-  const MotionControl u = OdometryMotionModel::control_from_odometry(*previous, odometry_pose, dt);
-  const Eigen::Vector3d x = filter_.state();
-  filter_.predict<2>(OdometryMotionModel::predict(x, u), OdometryMotionModel::jacobian_state(x, u),
-                     OdometryMotionModel::jacobian_control(x, u), motion_model_.control_noise(u));
+  last_control_ = OdometryMotionModel::control_from_odometry(*previous, odometry_pose, dt);
+  predict(filter_, *last_control_);
   return true;
+}
+
+void FeatureEkfFilter::predict(Filter& filter, const MotionControl& u) const {
+  const Eigen::Vector3d x = filter.state();
+  filter.predict<2>(OdometryMotionModel::predict(x, u), OdometryMotionModel::jacobian_state(x, u),
+                    OdometryMotionModel::jacobian_control(x, u), motion_model_.control_noise(u));
+}
+
+void FeatureEkfFilter::apply_covariance_floor(Filter& filter) const {
+  Eigen::Matrix3d P = filter.covariance();
+  const double floor_xy = config_.position_stddev_floor * config_.position_stddev_floor;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(P.topLeftCorner<2, 2>());
+  for (int i = 0; i < 2; ++i) {
+    const double missing = floor_xy - eigen.eigenvalues()(i);
+    if (missing > 0.0) P.topLeftCorner<2, 2>() += missing * eigen.eigenvectors().col(i) * eigen.eigenvectors().col(i).transpose();
+  }
+  const double floor_yaw = config_.heading_stddev_floor * config_.heading_stddev_floor;
+  if (P(2, 2) < floor_yaw) P(2, 2) = floor_yaw;
+  filter.reset(filter.state(), P);
 }
 
 ScanUpdateReport FeatureEkfFilter::update(const LaserScan& scan) { return update(extractor_.extract(scan)); }
 
 ScanUpdateReport FeatureEkfFilter::update(ExtractedFeatures features) {
-  ScanUpdateReport report;
+  ScanUpdateReport report = correct(filter_, features);
   report.features = std::move(features);
-  const ExtractedFeatures& f = report.features;
+  return report;
+}
+
+ScanUpdateReport FeatureEkfFilter::correct(Filter& filter, const ExtractedFeatures& f) const {
+  ScanUpdateReport report;
   // Eq. 8-12 against the predicted pose and covariance.
-  report.associations = association_.associate(f, map_, filter_.state(), filter_.covariance());
+  report.associations = association_.associate(f, map_, filter.state(), filter.covariance());
 
   const bool use[3] = {config_.use_lines, config_.use_corners, config_.use_edges};
   double nis_sum = 0.0;
@@ -46,7 +70,7 @@ ScanUpdateReport FeatureEkfFilter::update(ExtractedFeatures features) {
   for (const Association& a : report.associations) {
     if (!a.associated() || !use[static_cast<int>(a.measured_kind)]) continue;
     // Eq. 9, 13, 14, sequentially, each relinearized at the current state.
-    const Eigen::Vector3d x = filter_.state();
+    const Eigen::Vector3d x = filter.state();
     MeasurementJacobian H;
     Measurement2 predicted, measured;
     Eigen::Matrix2d R;
@@ -66,15 +90,17 @@ ScanUpdateReport FeatureEkfFilter::update(ExtractedFeatures features) {
       R = point.covariance;
     }
     const Measurement2 innovation = FeatureMeasurementModel::innovation(measured, predicted);
-    if (!filter_.update<2>(innovation, H, R)) continue;
-    Eigen::Vector3d updated = filter_.state();
+    if (!filter.update<2>(innovation, H, R)) continue;
+    Eigen::Vector3d updated = filter.state();
     updated.z() = normalize_angle(updated.z());
-    filter_.set_state(updated);
+    filter.set_state(updated);
     ++report.matched[static_cast<int>(a.measured_kind)];
     nis_sum += a.mahalanobis2;
+    report.nis.push_back(a.mahalanobis2);
     ++applied;
   }
   report.mean_nis = applied ? nis_sum / static_cast<double>(applied) : 0.0;
+  apply_covariance_floor(filter);
   return report;
 }
 

@@ -27,6 +27,7 @@ CorrespondenceRejector::CorrespondenceRejector(const RejectionRules& rules, cons
                                                const Eigen::Isometry3d& sensor_in_base)
     : rules_(rules),
       bound_(bound),
+      sensor_pose_(sensor_in_base),
       T_map_base_(T_map_base_predicted),
       T_base_map_(T_map_base_predicted.inverse()),
       sensor_in_map_((T_map_base_predicted * sensor_in_base).translation()),
@@ -37,6 +38,12 @@ CorrespondenceRejector::CorrespondenceRejector(const RejectionRules& rules, cons
   overlap_radius2_ = radius * radius;
   chord_per_metre_ = 2.0 * std::sin(std::min(bound.yaw, M_PI) / 2.0);
   sin_tilt_ = std::sin(bound.tilt);
+}
+
+CorrespondenceRejector CorrespondenceRejector::widened(double extra) const {
+  OdometryErrorBound bound = bound_;
+  bound.margin += extra;
+  return CorrespondenceRejector(rules_, bound, T_map_base_, sensor_pose_);
 }
 
 bool CorrespondenceRejector::intensity_consistent(float point_intensity, float model_intensity) const {

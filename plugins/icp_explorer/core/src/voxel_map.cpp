@@ -50,6 +50,8 @@ void VoxelMap::clear() {
   sums_.clear();
   counts_.clear();
   scans_.clear();
+  first_insert_.clear();
+  inserts_ = 0;
   intensity_sums_.clear();
   intensity_count_.clear();
   points_.clear();
@@ -73,6 +75,7 @@ void VoxelMap::insert(const ScanPoints& scan, const std::optional<Eigen::Vector3
       sums_.push_back(Eigen::Vector3d::Zero());
       counts_.push_back(0);
       scans_.push_back(0);
+      first_insert_.push_back(inserts_);
       intensity_sums_.push_back(0.0);
       intensity_count_.push_back(0);
       points_.push_back(p);
@@ -94,6 +97,7 @@ void VoxelMap::insert(const ScanPoints& scan, const std::optional<Eigen::Vector3
       if (scans_[v] < std::numeric_limits<uint16_t>::max()) ++scans_[v];
     }
   }
+  ++inserts_;
   tree_ = std::make_unique<KdTree>(points_);
   refresh_normals(touched, viewpoint);
 }
@@ -162,6 +166,7 @@ size_t VoxelMap::carve(const std::vector<Eigen::Vector3d>& ray_ends, const Eigen
       sums_[kept] = sums_[v];
       counts_[kept] = counts_[v];
       scans_[kept] = scans_[v];
+      first_insert_[kept] = first_insert_[v];
       intensity_sums_[kept] = intensity_sums_[v];
       intensity_count_[kept] = intensity_count_[v];
       points_[kept] = points_[v];
@@ -175,6 +180,7 @@ size_t VoxelMap::carve(const std::vector<Eigen::Vector3d>& ray_ends, const Eigen
   for (auto* v : {&sums_, &points_, &normals_}) v->resize(kept);
   counts_.resize(kept);
   scans_.resize(kept);
+  first_insert_.resize(kept);
   intensity_sums_.resize(kept);
   intensity_count_.resize(kept);
   intensity_.resize(kept);

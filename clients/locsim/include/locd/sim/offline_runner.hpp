@@ -14,6 +14,7 @@
 #include "locd/sdk/types.hpp"
 #include "locd/sim/evaluator.hpp"
 #include "locd/sim/scenario.hpp"
+#include "locd/sim/simulation.hpp"
 
 namespace locd::sim {
 
@@ -43,6 +44,7 @@ struct RunResult {
   size_t measurements = 0;  // fed to the plugin
   size_t rejected = 0;      // refused by the plugin (InputError)
   std::string last_rejection;
+  std::optional<SimulatedEvent> event;  // a kidnap or wrong start, when the scenario has one
   EvaluationSummary summary;
   std::vector<ScoredEstimate> estimates;
   std::vector<Pose2> truth_path;  // at the truth sample rate

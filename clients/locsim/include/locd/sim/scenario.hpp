@@ -10,14 +10,23 @@
 //   robot: {id, start: [x, y, yaw], max_speed, max_yaw_rate, max_acceleration, lookahead,
 //           waypoints: [[x, y], ...], loop: true}
 //   sensors: {laser: {...}, odometry: {...}}      # each parsed by its sensor model
-//   localizer: {config_file, initial_pose_offset: [dx, dy, dyaw], initial_stddev: [sx, sy, syaw]}
-//   evaluation: {convergence_threshold_m: 0.2}
+//   localizer: {config_file, initial_pose_offset: [dx, dy, dyaw], initial_stddev: [sx, sy, syaw],
+//               wrong_start: {min_distance_m: 15}}   # optional, instead of initial_pose_offset
+//   kidnap: {at_s: 40, min_distance_m: 10}           # optional; or {at_s: 40, to: [x, y, yaw]}
+//   evaluation: {convergence_threshold_m: 0.2, detection_deadline_s: 5, relocalization_deadline_s: 10}
+//
+// A wrong start gives the plugin a pose on the route (a point of the waypoint polyline, heading
+// along it) at least min_distance_m from the true start, drawn from the run's seed, with the
+// configured initial_stddev: the plugin believes it. A kidnap carries the robot at at_s to `to`,
+// or to a pose on the route drawn from the seed at least min_distance_m from where it is; its
+// odometry does not see the jump, its other sensors see the new place.
 #pragma once
 
 #include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -47,6 +56,20 @@ struct LocalizerSpec {
   Params params;               // its `params`, rooted at the plugin's name
   Pose2 initial_pose_offset;   // error of the pose given to the plugin at start (map frame)
   Eigen::Vector3d initial_stddev{0.5, 0.5, 0.1};
+  std::optional<double> wrong_start_min_distance_m;  // set: a wrong start (see above)
+};
+
+struct KidnapSpec {
+  double at_s = 0.0;
+  std::optional<Pose2> to;      // where to; else a random pose on the route...
+  double min_distance_m = 10.0;  // ...at least this far from the robot
+};
+
+// What locsim checks a run against (the targets are the defaults).
+struct EvaluationSpec {
+  double convergence_threshold_m = 0.2;     // error below it: converged, and "small" for false alarms
+  double detection_deadline_s = 5.0;        // a kidnap or wrong start must be reported within it
+  double relocalization_deadline_s = 10.0;  // and the error be back under the threshold within it
 };
 
 struct Scenario {
@@ -62,7 +85,9 @@ struct Scenario {
   RobotSpec robot;
   Params sensors;  // one child per sensor, validated by the sensor models
   LocalizerSpec localizer;
+  std::optional<KidnapSpec> kidnap;
   double convergence_threshold_m = 0.2;
+  EvaluationSpec evaluation;  // evaluation.convergence_threshold_m == convergence_threshold_m
 };
 
 // Relative paths in the text are resolved against base_directory.

@@ -14,11 +14,22 @@
 
 #include "locd/emoi_markov/emoi_markov_filter.hpp"
 #include "locd/sdk/plugin.hpp"
+#include "locd/sim/consistency.hpp"
 #include "locd/sim_emoi_markov/synthetic_dsm.hpp"
 #include "locd/sim_emoi_markov/terrain_robot.hpp"
 #include "locd/sim_emoi_markov/tilting_laser.hpp"
 
 namespace locd::sim::emoi {
+
+// A new path per seed instead of the fixed one (`robot.random_path`): `legs` straight legs of
+// `leg_m`, the first in a random direction from a random start, each next one turned by a random
+// angle in [-max_turn, max_turn]; every waypoint at least `margin_m` inside the world.
+struct RandomPathConfig {
+  int legs = 0;                 // 0: off, the scenario's fixed path
+  double leg_m = 15.0;
+  double max_turn_rad = M_PI / 2;
+  double margin_m = 30.0;
+};
 
 struct FourPositionsScenario {
   std::string name;
@@ -29,6 +40,7 @@ struct FourPositionsScenario {
   double dsm_nodata_fraction = 0.0;
   std::string robot_id = "robot1";
   std::vector<Eigen::Vector2d> path;   // start, then the way through positions 1..4
+  RandomPathConfig random_path;        // when on, replaces `path` by a path drawn per seed
   double speed_mps = 1.0;
   double base_height_m = 0.4;
   TiltingLaserConfig laser;
@@ -53,6 +65,34 @@ struct UpdateRecord {
   std::vector<double> coverage;
   std::vector<double> robot_emoi;     // per radius, from the local map
   std::vector<double> dsm_emoi;       // per radius, the DSM layer at the true position
+  // The plugin's own judgement (UpdateResult::localization) and its criteria.
+  LocalizationState state = LocalizationState::kUnknown;
+  std::string reason;
+  double peak_mass = 0.0;             // belief within the tracking radius of the estimate
+  int modes = 0;
+  double area_m2 = 0.0;               // exp(entropy) * cell area
+  double fit_rms_m = -1.0;            // the local map against the DSM at the estimate (-1: not computed)
+  // Consistency: the error against the reported covariance.
+  double nees_position = 0.0;         // e^T P^-1 e over (x, y)
+  double nees_heading = 0.0;
+  double truth_mass = -1.0;           // belief within success_radius_m of the truth (in-process runs only)
+  double cell_maximum_error_m = -1.0; // error of the belief grid's most probable cell (in-process runs only)
+  double nees_main_mode = -1.0;       // against the heaviest mode's covariance (in-process runs only)
+};
+
+// Every pose after the first sensor update (odometry poses between updates included): NEES of
+// position (2 dof) and heading (1 dof) against the reported covariance. "Confidently wrong":
+// outside the 99 % ellipse while the plugin's last state was tracking (or unknown): nothing
+// warned the user.
+struct PoseConsistency {
+  size_t poses = 0;
+  double nees_position_sum = 0.0, nees_heading_sum = 0.0;
+  size_t outside_99_position = 0;     // NEES above the chi-square 99 % point (2 dof: 9.21)
+  size_t outside_99_heading = 0;      // (1 dof: 6.63)
+  size_t confidently_wrong = 0;       // outside_99_position while tracking or unknown
+  size_t tracking = 0;                // poses while the state was tracking
+  double nees_position_tracking_sum = 0.0;  // over those
+  std::vector<sim::ConsistencySample> samples;  // every pose, for the shared summary (locd/sim/consistency.hpp)
 };
 
 struct RunResult {
@@ -61,10 +101,16 @@ struct RunResult {
   bool success = false;          // maximum within success_radius_m after the last counted update
   double layers_seconds = 0.0;   // EMOI precompute (or cache read)
   double mean_update_ms = 0.0;   // localizer time per sensor update
+  PoseConsistency consistency;
 };
+
+// The robot's path for one seed: the scenario's fixed path, or with random_path one drawn from
+// the seed (deterministic).
+std::vector<Eigen::Vector2d> path_for_seed(const FourPositionsScenario& scenario, uint64_t seed);
 
 // Everything one seed needs: world, the DSM the localizer gets, and the measurement stream.
 struct SimulatedRun {
+  std::vector<Eigen::Vector2d> path;   // path_for_seed
   SyntheticWorld world;
   locd::emoi::ElevationMap dsm;
 };

@@ -16,6 +16,7 @@
 
 #include "locd/sdk/geometry.hpp"
 #include "locd/sdk/plugin.hpp"
+#include "locd/sim/consistency.hpp"
 #include "locd/sim_icp_explorer/indoor_world.hpp"
 #include "locd/sim_icp_explorer/scanner3d.hpp"
 #include "locd/sim_icp_explorer/stop_and_scan_odometry.hpp"
@@ -46,6 +47,8 @@ ExplorationScenario load_exploration_scenario(const std::filesystem::path& file)
 struct ExplorationScanRecord {
   Pose2 truth;
   double error_m = 0.0, error_deg = 0.0;
+  std::optional<Nees> nees;  // planar (x, y, yaw) against the reported covariance, when estimated
+  LocalizationState state = LocalizationState::kUnknown;  // the plugin's last judgement
   double update_ms = 0.0;
   double coverage = 0.0;
   bool done = false;

@@ -16,8 +16,10 @@ struct SensorModelConfig {
   double min_coverage = 0.3;        // a radius with a thinner local map is left out
   double full_coverage = 0.9;       // from here on a radius gets its full weight
   double ground_offset_stddev_m = 0.0;  // masked model: prior on the robot's ground height error
-  double shape_sigma_m = 0.2;  // masked model, sparse updates: RMS elevation residual of the local map
+  double shape_sigma_m = 0.035;  // masked model, sparse updates: RMS elevation residual of the local map
                                // against the DSM worth one standard deviation (0 = EMOI only)
+  double shape_edge_step_m = 0.5;  // the shape residual leaves out DSM cells stepping by more than
+                                   // this to a neighbour (object edges; 0 = none left out)
 };
 
 // The odometry's distortion since the last update, marginalised over a grid of hypotheses
@@ -39,6 +41,17 @@ struct LocalMapConfig {
   double min_point_range_m = 0.5;   // returns closer than this (robot body) are ignored
 };
 
+// The localization state's criteria (belief_assessment.hpp).
+struct AssessmentConfig {
+  double tracking_radius_m = 1.0;   // tracking vouches for the estimate within this distance...
+  double tracking_mass = 0.9;       // ... holding at least this much of the belief
+  double min_mode_mass = 0.01;      // a separate region holding this much is a second mode
+  double mode_region_mass = 0.99;   // the modes are the connected regions of the cells holding this much
+  double mode_cell_m = 1.0;         // the grid the modes and the entropy are found on
+  double lost_area_m2 = 1000.0;     // a belief spread wider (exp(entropy) * cell area) is lost
+  double max_fit_rms_m = 0.2;       // tracking needs the local map to fit the DSM at the estimate this well
+};
+
 struct EmoiMarkovConfig {
   std::string map;                                 // DSM name, resolved by PluginContext::maps
   std::vector<double> radii_m{5.0, 10.0, 15.0};
@@ -55,6 +68,7 @@ struct EmoiMarkovConfig {
   LocalMapConfig local_map;                        // resolution = the DSM's
   bool cache = true;                               // EMOI layers cached on disk
   size_t belief_output_max_cells = 250'000;        // belief diagnostics grid is pooled to this
+  AssessmentConfig assessment;                     // localization state (tracking / uncertain / lost)
 };
 
 }  // namespace locd::emoi

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "locd/emoi_markov/belief_assessment.hpp"
 #include "locd/emoi_markov/config.hpp"
 #include "locd/emoi_markov/dsm_io.hpp"
 #include "locd/emoi_markov/local_elevation_map.hpp"
@@ -59,6 +60,9 @@ class EmoiMarkovFilter {
   const EmoiMarkovConfig& config() const { return config_; }
   const DistortionReport& last_distortion() const { return distortion_; }
   const BeliefSummary& summary() const { return summary_; }
+  // The localization state and its criteria (belief_assessment.hpp), judged after every sensor
+  // update; before the first one: lost (the global belief, or the initial pose not yet checked).
+  const BeliefAssessment& assessment() const { return assessment_; }
   size_t sensor_updates() const { return sensor_updates_; }
   size_t rejected_points() const { return rejected_points_; }
   size_t belief_resets() const { return belief_resets_; }
@@ -91,6 +95,9 @@ class EmoiMarkovFilter {
   // The full-disk model (the paper's): log p(z|x) on the DSM grid.
   cv::Mat_<float> full_disk_log_likelihood_now(std::vector<double>& weights);
   Eigen::Isometry3d base_in_odom() const;
+  // The last sparse update's fit (RMS shape residual, m) at the matching cell holding `position`;
+  // NaN when not computed there.
+  double fit_at(const Eigen::Vector2d& position) const;
   double map_heading() const;
 
   EmoiMarkovConfig config_;
@@ -113,6 +120,11 @@ class EmoiMarkovFilter {
   double pending_travel_m_ = 0.0;
   double travelled_m_ = 0.0;
   BeliefSummary summary_;
+  BeliefAssessment assessment_;
+  // The last sparse update's support (matching cells) and best shape residual per cell: the fit
+  // at the estimate (BeliefAssessment::fit_rms_m); empty after a global update.
+  std::vector<cv::Point> fit_cells_;
+  std::vector<float> fit_residual_;
   size_t sensor_updates_ = 0;
   size_t rejected_points_ = 0;
   size_t belief_resets_ = 0;

@@ -30,7 +30,11 @@ struct DirectSumTerms;  // match_at's table of the observed cells (masked_emoi.c
 class MaskedEmoiMatcher {
  public:
   // match_resolution_m is rounded to a whole number of DSM cells (at least one).
-  MaskedEmoiMatcher(const ElevationMap& dsm, std::vector<double> radii_m, double match_resolution_m);
+  // shape_edge_step_m > 0: the shape residual leaves out the matching cells where the DSM steps
+  // by more than this within one cell (3 x 3 neighbourhood): object edges, whose tops a ground
+  // robot's laser does not see (its max-height map holds the face's highest return there).
+  MaskedEmoiMatcher(const ElevationMap& dsm, std::vector<double> radii_m, double match_resolution_m,
+                    double shape_edge_step_m = 0.0);
 
   int factor() const { return factor_; }                        // DSM cells per matching cell
   double cell_m() const { return coarse_.geometry.resolution; }
@@ -44,7 +48,8 @@ class MaskedEmoiMatcher {
     std::vector<double> offset_gain;          // per radius, d EMOI / d(centre elevation) = -mean r^2 / R^2 over M
     std::vector<cv::Mat_<float>> dsm_emoi;    // per radius, EMOI_M(x) on the matching grid (or 1 x N at listed cells)
     // match_at with shape: per listed cell, the mean squared difference between the robot's
-    // elevations and the DSM's over M after the best vertical offset (m^2, NaN: no overlap).
+    // elevations and the DSM's over M after the best vertical offset (m^2, NaN: no overlap), the
+    // DSM's edge cells left out (shape_edge_step_m).
     cv::Mat_<float> shape_residual;
   };
   // patch: map-aligned, centred on the robot, matching-grid cells, value = elevation minus the
@@ -99,6 +104,7 @@ class MaskedEmoiMatcher {
   ElevationMap coarse_;            // max-pooled
   cv::Mat_<float> ground_;         // centre elevations (the pooled DSM)
   cv::Mat_<float> filled_, valid_; // pooled DSM minus reference_ (0 where no data), 1 where data
+  cv::Mat_<float> shape_valid_;    // 1 where data and no edge (shape_edge_step_m), else 0
   cv::Mat_<int> nodata_integral_;  // integral image of the cells without data (match_at's fast path)
   double reference_ = 0.0;
   int padded_rows_ = 0, padded_cols_ = 0;

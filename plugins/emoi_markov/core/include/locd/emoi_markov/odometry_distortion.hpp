@@ -78,6 +78,8 @@ struct DistortionReport {
 struct SupportLikelihood {
   std::vector<cv::Point> cells;          // the support, matching grid (x = column); empty: prior too spread
   std::vector<float> likelihood;         // L_mix per support cell, floored
+  std::vector<float> best_shape_residual;  // per support cell, the smallest over the hypotheses (m^2; NaN:
+                                           // no overlap; empty without the shape term)
   float outside = 0.0f;                  // every other cell's likelihood
   MaskedEmoiMatcher::Match identity;     // the match of the local map as odometry placed it (B = I), at the cells
   std::vector<double> weights;           // its per-radius weights (coverage_weight)

@@ -51,6 +51,52 @@ struct AssociationConfig {
   double line_overlap_margin = 0.3; // m, slack when a measured segment must overlap a map segment
 };
 
+// How well a scan fits the map at a pose (scan_agreement.hpp).
+struct ScanAgreementConfig {
+  int beams = 90;                     // beams cast per scan (every k-th of the scan)
+  int min_beams = 10;                 // fewer informative beams: no verdict
+  double tolerance = 0.1;             // m, a beam agrees within tolerance + tolerance_per_metre * range
+  double tolerance_per_metre = 0.02;
+};
+
+// The localization state from the last window_scans scans (localization_monitor.hpp).
+struct MonitorConfig {
+  int window_scans = 25;                 // 1 s of a 25 Hz laser: the window of the uncertain criteria
+  int lost_window_scans = 5;             // the last 0.2 s: the window of the lost criteria
+  double lost_agreement = 0.75;          // mean scan agreement below it: lost
+  double min_agreement = 0.95;           // below it: uncertain
+  double lost_association_share = 0.2;   // associated / extracted features below it: lost
+  double min_association_share = 0.5;    // below it: uncertain
+  int min_window_features = 10;          // fewer features in a window: no association verdict
+  double nis_probability = 0.999;        // NIS sum above chi2(2 n) at this probability: uncertain
+  double max_tracking_stddev = 0.5;      // m, largest position stddev; above it: uncertain
+  int lost_after_uncertain_scans = 25;   // uncertain this many scans in a row: lost (0 = never)
+};
+
+// Relocalization by a global search of the feature map when lost (global_search.hpp).
+struct GlobalSearchConfig {
+  bool enabled = true;
+  double min_pair_angle = 0.5236;        // rad (30 deg): flatter line pairs give no hypothesis
+  double angle_tolerance = 0.0873;       // rad (5 deg): a measured pair's angle against a map pair's
+  double max_pair_distance = 60.0;       // m, map line pairs farther apart are never seen together
+  size_t max_map_pairs = 200000;         // bound on the precomputed map pairs (configure fails above)
+  double interval_s = 0.2;               // s between generations of new hypotheses while lost
+  size_t new_hypotheses = 32;            // the best by feature matches join the tracked set
+  size_t max_tracked_hypotheses = 64;
+  double merge_distance = 0.5;           // m, a new hypothesis this close to a tracked one refreshes it
+  double merge_angle = 0.1;              // rad
+  double agreement_smoothing = 0.2;      // weight of a new scan in a hypothesis' recent agreement
+  double drop_agreement = 0.6;           // a recent agreement below it drops the hypothesis
+  double drop_disagreement = 1.0;        // so does summed disagreement this much above the best's
+  double birth_disagreement = 0.3;       // a new hypothesis starts this much above the best's sum
+  int min_hypothesis_scans = 10;         // scans a hypothesis is scored on before it may be accepted
+  double accept_agreement = 0.85;        // the best's recent agreement must reach it, and...
+  double ambiguity_disagreement = 0.3;   // ...every distinct rival's sum must exceed the best's by this
+  double distinct_distance = 1.0;        // m, rivals closer than this (and distinct_angle) are the same
+  double distinct_angle = 0.35;          // rad
+  Eigen::Vector3d relocalized_stddev = Eigen::Vector3d(0.1, 0.1, 0.03);  // m, m, rad: the reset covariance
+};
+
 struct FeatureEkfConfig {
   MotionNoiseConfig motion;
   ExtractorConfig extraction;
@@ -61,6 +107,15 @@ struct FeatureEkfConfig {
   bool use_corners = true;
   bool use_edges = true;
   double max_odometry_gap = 1.0;  // s; a longer gap between odometry messages only restarts it
+  // The smallest position stddev (along any direction) and heading stddev the filter holds after a
+  // scan. Errors of the map and of the extraction repeat from scan to scan (the same wall, the same
+  // fit): sequential updates that treat them as independent would shrink the covariance below the
+  // error they leave. 0 = no floor.
+  double position_stddev_floor = 0.002;  // m
+  double heading_stddev_floor = 0.002;  // rad
+  ScanAgreementConfig agreement;
+  MonitorConfig monitor;
+  GlobalSearchConfig global_search;
 };
 
 // ------------------------------------------------------------------ non-unique landmarks
@@ -91,6 +146,14 @@ struct LandmarkEkfConfig {
   double initial_position_stddev = 5.0;       // m
   double initial_velocity_stddev = 0.5;       // m/s
   double max_imu_gap = 0.1;                   // s; a longer gap restarts the prediction
+  // The localization state over detection frames: association share and NIS (no scan, so no
+  // agreement criterion); positions are metres of a GNSS-free vehicle, hence the wider stddev.
+  MonitorConfig monitor = [] {
+    MonitorConfig m;
+    m.max_tracking_stddev = 10.0;
+    m.lost_after_uncertain_scans = 0;  // no search to hand over to
+    return m;
+  }();
 };
 
 // ------------------------------------------------------------------ the plugin's config

@@ -22,6 +22,7 @@ struct ScanUpdateReport {
   std::vector<Association> associations;  // one per extracted feature
   size_t matched[3] = {0, 0, 0};          // applied updates per FeatureKind
   double mean_nis = 0.0;                  // mean normalized innovation squared of applied updates
+  std::vector<double> nis;                // of each applied update (2 dof), against the predicted state
 };
 
 class FeatureEkfFilter {
@@ -42,13 +43,25 @@ class FeatureEkfFilter {
   // Association and update of already extracted features.
   ScanUpdateReport update(ExtractedFeatures features);
 
+  // The same steps on another state (the relocalization's hypotheses): prediction with a control,
+  // association and update of extracted features (the report's `features` stays empty).
+  void predict(Filter& filter, const MotionControl& u) const;
+  ScanUpdateReport correct(Filter& filter, const ExtractedFeatures& features) const;
+  // The control of the last odometry message that predicted (none after a restart of odometry).
+  const std::optional<MotionControl>& last_control() const { return last_control_; }
+
   Eigen::Vector3d pose() const { return filter_.state(); }
   Eigen::Matrix3d covariance() const { return filter_.covariance(); }
   const FeatureMap2D& map() const { return map_; }
   const FeatureEkfConfig& config() const { return config_; }
   const LaserFeatureExtractor& extractor() const { return extractor_; }
+  const NearestNeighborAssociation& association() const { return association_; }
 
  private:
+  // Raises the position covariance to position_stddev_floor^2 along each principal direction and
+  // the heading variance to heading_stddev_floor^2 (adding a positive semi-definite matrix).
+  void apply_covariance_floor(Filter& filter) const;
+
   FeatureEkfConfig config_;
   FeatureMap2D map_;
   OdometryMotionModel motion_model_;
@@ -56,6 +69,7 @@ class FeatureEkfFilter {
   NearestNeighborAssociation association_;
   Filter filter_;
   std::optional<Pose2> last_odometry_pose_;
+  std::optional<MotionControl> last_control_;
   int64_t last_odometry_stamp_ns_ = 0;
 };
 

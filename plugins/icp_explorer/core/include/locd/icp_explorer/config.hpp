@@ -31,6 +31,45 @@ struct RejectionRules {
 
 enum class IcpMetric { kPointToPlane, kPointToPoint };
 
+// Degeneracy (modified_icp.hpp): the information matrix of the normal equations, in a frame at the
+// scanner with rotations scaled by the scan's inertia (so every coordinate is metres of point
+// motion), is split into eigen-directions. A direction that gets less than min_constraint_share
+// of the pairs' total kernel weight from pairs constraining it strongly is poorly constrained:
+// the registration does not move the pose along it (the odometry prior holds it) and reports the
+// prior's uncertainty there.
+// Between min_constraint_share and confident_constraint_share a direction is barely
+// constrained: the data move the pose along it, but its reported variance keeps part of the
+// prior's (all of it at the lower bound, none at the upper).
+struct DegeneracySettings {
+  bool hold_to_prior = true;
+  double min_constraint_share = 0.003;
+  double confident_constraint_share = 0.01;
+};
+
+// When a registration is trustworthy (RegistrationResult::converged, the localization state).
+struct TrustSettings {
+  // Inliers: accepted pairs whose residual (point-to-plane where the model has a normal) is within
+  // inlier_distance, among the data points overlapping the model (an accepted pair, its model
+  // surface facing the scanner, within overlap_distance; points farther from every model point or
+  // facing the back of a thin wall see something new and do not count) whose model point is not
+  // on a floor or ceiling (a floor fits whatever the horizontal error).
+  double min_inlier_share = 0.5;
+  double inlier_distance = 0.15;    // m
+  double overlap_distance = 0.5;    // m
+  double max_rms_error = 0.08;      // m, RMS residual of the inliers
+  int max_degenerate_directions = 2;  // more poorly constrained directions than this: not trustworthy
+};
+
+// The coarse stage of the registration (register_coarse_to_fine): the scan and the model at a
+// coarse resolution first, with a wide kernel, so that a start far off (1 m, 10 degrees) is pulled
+// in by few, far-reaching correspondences before the full-resolution registration.
+struct CoarseStageSettings {
+  bool enabled = true;
+  double voxel_size = 1.0;            // m, scan and model resolution
+  double initial_kernel_scale = 2.0;  // m
+  double kernel_scale = 0.5;          // m; the fine stage then starts at min(this, initial_kernel_scale)
+};
+
 // Gauss-Newton registration (modified_icp.hpp).
 struct IcpSettings {
   IcpMetric metric = IcpMetric::kPointToPlane;
@@ -39,8 +78,11 @@ struct IcpSettings {
   double kernel_scale = 0.05;                // m, final Geman-McClure scale
   double initial_kernel_scale = 0.8;         // m, first iterations' scale
   int coarse_stride = 4;                     // while the scale is above 4 x kernel_scale, every n-th data point
-  double convergence_translation = 1e-4;     // m, stop when an update moves less ...
+  double convergence_translation = 5e-4;     // m, stop when an update moves the scanner less ...
   double convergence_rotation = 1e-4;        // rad, ... and turns less than this
+  CoarseStageSettings coarse;
+  DegeneracySettings degeneracy;
+  TrustSettings trust;
 };
 
 // The layered hexahedral map the planner works on (layered_hexahedral_map.hpp).
@@ -89,6 +131,10 @@ struct MapOutputSettings {
 
 struct IcpExplorerConfig {
   size_t max_points = 200'000;      // per cloud; larger clouds are refused
+  // The intensity that means full reflectivity: intensities are divided by it, so rule (a)'s
+  // threshold and the model work on a 0-1 scale. 0 = estimate it from the first cloud with
+  // intensity (IcpExplorer::intensity_scale).
+  double intensity_scale = 0.0;
   double scan_voxel_size = 0.3;     // m, data points for registration
   double map_voxel_size = 0.1;      // m, the model
   int normal_neighbours = 10;

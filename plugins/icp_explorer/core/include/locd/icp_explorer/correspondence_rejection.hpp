@@ -45,10 +45,14 @@ class CorrespondenceRejector {
   const Eigen::Vector3d& sensor_in_base() const { return sensor_in_base_; }
   // Switches rule (a) off for scans without intensity.
   void disable_intensity() { rules_.intensity = false; }
+  // The same rules with the margin widened by `extra` (m): for coarse voxels, whose centroids
+  // stand off the surfaces by up to half a voxel.
+  CorrespondenceRejector widened(double extra) const;
 
  private:
   RejectionRules rules_;
   OdometryErrorBound bound_;
+  Eigen::Isometry3d sensor_pose_;
   Eigen::Isometry3d T_map_base_;
   Eigen::Isometry3d T_base_map_;
   Eigen::Vector3d sensor_in_map_;

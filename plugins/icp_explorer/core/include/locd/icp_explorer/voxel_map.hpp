@@ -38,6 +38,10 @@ class VoxelMap {
                double end_margin = 0.25);
   // Scans that hit voxel i.
   int scans_seen(size_t i) const { return scans_[i]; }
+  // The insert (0 for the first insert() after construction or clear(), 1 for the next, ...) that
+  // created voxel i: its position is anchored by that scan's pose.
+  uint32_t first_insert(size_t i) const { return first_insert_[i]; }
+  uint32_t inserts() const { return inserts_; }
 
   bool empty() const { return points_.empty(); }
   size_t size() const { return points_.size(); }
@@ -69,6 +73,8 @@ class VoxelMap {
   std::vector<Eigen::Vector3d> sums_;
   std::vector<int> counts_;
   std::vector<uint16_t> scans_;  // inserts that touched the voxel
+  std::vector<uint32_t> first_insert_;
+  uint32_t inserts_ = 0;
   std::vector<double> intensity_sums_;
   std::vector<int> intensity_count_;
   std::vector<Eigen::Vector3d> points_;

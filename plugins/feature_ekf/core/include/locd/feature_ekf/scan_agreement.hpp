@@ -1,0 +1,38 @@
+// How well a scan fits the map at a pose (beyond the paper; the check of feature_ekf's
+// localization state and of its relocalization hypotheses): every k-th beam is cast from the
+// laser, placed by the pose, into the map's wall segments, and the beam agrees when its measured
+// range is within tolerance + tolerance_per_metre * range of the cast one. Beams that neither
+// return nor hit a wall within range_max carry no information and are left out; a return where
+// the map has no wall, or a wall where the laser saw nothing, disagrees.
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+
+#include "locd/feature_ekf/config.hpp"
+#include "locd/sdk/feature_map.hpp"
+#include "locd/sdk/geometry.hpp"
+#include "locd/sdk/types.hpp"
+
+namespace locd::feature_ekf {
+
+class ScanAgreement {
+ public:
+  // Keeps a reference to map: it must outlive this object.
+  ScanAgreement(ScanAgreementConfig config, const FeatureMap2D& map);
+
+  // Share of the considered beams that agree; none when fewer than min_beams carry information.
+  std::optional<double> agreement(const LaserScan& scan, const Pose2& robot) const;
+
+  // Range from origin along heading to the nearest wall of the map, or +inf when none is hit
+  // within max_range.
+  double cast(const Eigen::Vector2d& origin, double heading, double max_range) const;
+
+  const ScanAgreementConfig& config() const { return config_; }
+
+ private:
+  ScanAgreementConfig config_;
+  const FeatureMap2D& map_;
+};
+
+}  // namespace locd::feature_ekf
