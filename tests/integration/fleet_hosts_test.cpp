@@ -1,9 +1,10 @@
-// Many servers, one fleet, over real DDS between hosts (domain 150): four network namespaces
+// Many servers, one fleet, over real DDS between hosts (domains 150, 151): four network namespaces
 // joined by veth pairs and a bridge (tests/common/hosts.sh, made and removed here; root): three
 // locd servers, and 30 robots of `locsim fleet` on the fourth host. Every robot is served by
-// exactly one server, the robots spread over the three, and when one server is killed (kill -9)
-// the other two take its robots over from where they were: no robot ends without poses, none
-// got poses twice, none is left on the dead server.
+// exactly one server, the robots spread over the three, and when one server is killed (kill -9),
+// or its cable is cut and comes back 5 s later, the other two take its robots over from where
+// they were: no robot ends without poses, none got poses twice, none is left on (or goes back
+// to) server2.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -24,7 +25,7 @@ namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 using locd::test::ChildProcess;
 
-constexpr int kDomain = 150;
+enum class Fault { kKill, kCutAndHeal };
 constexpr int kServers = 3;
 constexpr int kRobots = 30;
 
@@ -56,6 +57,7 @@ class Hosts {
   }
 
  private:
+  friend class FleetHosts;
   int run(const std::string& args) const { return std::system((script_ + " " + args + " > /dev/null 2>&1").c_str()); }
   int count_;
   fs::path dir_;
@@ -63,7 +65,15 @@ class Hosts {
   bool ok_ = false;
 };
 
-TEST(FleetHosts, EachRobotHasOneServerAndADeadServersRobotsAreTakenOver) {
+class FleetHosts : public ::testing::TestWithParam<Fault> {
+ protected:
+  static int cut(const Hosts& hosts, int host, bool heal) {
+    return hosts.run(std::string(heal ? "heal " : "cut ") + hosts.prefix_ + " " + std::to_string(host));
+  }
+};
+
+TEST_P(FleetHosts, EachRobotHasOneServerAndAFailedServersRobotsAreTakenOver) {
+  const int kDomain = GetParam() == Fault::kKill ? 150 : 151;
   if (::geteuid() != 0) GTEST_SKIP() << "needs root to make network namespaces (CI runs as root)";
   const fs::path dir = fs::temp_directory_path() / ("locd_fleet_hosts_" + std::to_string(::getpid()));
   fs::create_directories(dir);
@@ -101,7 +111,7 @@ TEST(FleetHosts, EachRobotHasOneServerAndADeadServersRobotsAreTakenOver) {
   const fs::path fleet_out = dir / "fleet.json";
   auto fleet = hosts.start(0, bin + "locsim",
                            {"fleet", locd::test::source_dir() + "/config/scenarios/corridor_fleet.yaml", "--robots",
-                            std::to_string(kRobots), "--duration", "14", "--domain", std::to_string(kDomain), "--json"},
+                            std::to_string(kRobots), "--duration", GetParam() == Fault::kKill ? "14" : "20", "--domain", std::to_string(kDomain), "--json"},
                            fleet_out);
   // Running: the fleet prints its line; then who serves whom, as an operator sees it.
   while (text_of(fleet_out).find("robots running") == std::string::npos) {
@@ -121,9 +131,16 @@ TEST(FleetHosts, EachRobotHasOneServerAndADeadServersRobotsAreTakenOver) {
   for (const auto& [server, count] : spread) total += count;
   EXPECT_EQ(total, kRobots) << before.dump();
 
-  // server2 dies.
-  servers[1]->signal(SIGKILL);
-  servers[1]->wait(10s);
+  if (GetParam() == Fault::kKill) {
+    servers[1]->signal(SIGKILL);
+    servers[1]->wait(10s);
+  } else {
+    // server2's cable is cut, and comes back: it must take no robot (it hears none while cut,
+    // and sees the other servers again before it could), and give back the ones it served.
+    ASSERT_EQ(cut(hosts, 2, false), 0);
+    std::this_thread::sleep_for(5s);
+    ASSERT_EQ(cut(hosts, 2, true), 0);
+  }
   ASSERT_EQ(fleet->wait(90s), 0) << text_of(fleet_out);
   const std::string out = text_of(fleet_out);
   const auto result = nlohmann::json::parse(out.substr(out.find('{')));
@@ -141,5 +158,8 @@ TEST(FleetHosts, EachRobotHasOneServerAndADeadServersRobotsAreTakenOver) {
   }
   if (!::testing::Test::HasFailure()) fs::remove_all(dir);
 }
+
+INSTANTIATE_TEST_SUITE_P(Faults, FleetHosts, ::testing::Values(Fault::kKill, Fault::kCutAndHeal),
+                         [](const auto& info) { return info.param == Fault::kKill ? "kill" : "cut_and_heal"; });
 
 }  // namespace
