@@ -12,6 +12,7 @@
 #
 # Usage (as root, from the repository root, after a build):
 #   bench/server/fault_isolation.sh [isolation|restart|sigterm|all] [DURATION_S]
+# LOCD_FAULTS="hang allocate": only those faults in the isolation part.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 part="${1:-all}"
@@ -41,7 +42,7 @@ field() { sed -n "s/.*\"$1\":\([^,}]*\).*/\1/p" "$2"; }
 
 if [[ "$part" == isolation || "$part" == all ]]; then
   echo "fault     robot A rmse_m  max_pose_gap_ms  poses   robot B last error"
-  for fault in none segfault abort exit hang allocate stack_overflow garbage; do
+  for fault in ${LOCD_FAULTS:-none segfault abort exit hang allocate stack_overflow garbage}; do
     faulty_scenario "$fault"
     run "$bin/locd" --config "$work/locd.yaml" > "$work/locd.log" 2>&1 &
     sleep 0.5

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Eigenvalues>
+
 #include "locd/sdk/gaussian.hpp"
 
 namespace locd {
@@ -153,6 +155,18 @@ ParticleCluster cluster_around(const std::vector<PoseParticle>& particles, const
   if (total > 0.0) cov /= total;
   e.covariance = cov + Eigen::Matrix3d::Identity() * 1e-9;
   return e;
+}
+
+Eigen::Matrix3d floor_covariance(Eigen::Matrix3d covariance, double position_stddev, double heading_stddev) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(covariance.topLeftCorner<2, 2>());
+  for (int i = 0; i < 2; ++i) {
+    const double missing = position_stddev * position_stddev - eigen.eigenvalues()(i);
+    if (missing > 0.0) {
+      covariance.topLeftCorner<2, 2>() += missing * eigen.eigenvectors().col(i) * eigen.eigenvectors().col(i).transpose();
+    }
+  }
+  covariance(2, 2) = std::max(covariance(2, 2), heading_stddev * heading_stddev);
+  return covariance;
 }
 
 ParticleCluster main_cluster(const std::vector<PoseParticle>& particles, double radius,

@@ -205,6 +205,26 @@ TEST(ParticleFilterCore, ClusterMomentsMatchTheDirectFormula) {
 namespace {
 
 // The ziggurat's samples against the standard normal: moments and the CDF at fixed points.
+TEST(ParticleFilterCore, CovarianceFloorRaisesOnlyTheNarrowDirections) {
+  // A cluster 10 cm wide along 30 degrees and 2 mm across it, 0.001 rad in heading.
+  const double a = 0.5236;
+  Eigen::Matrix2d rotation;
+  rotation << std::cos(a), -std::sin(a), std::sin(a), std::cos(a);
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  covariance.topLeftCorner<2, 2>() = rotation * Eigen::Vector2d(0.01, 4e-6).asDiagonal() * rotation.transpose();
+  covariance(2, 2) = 1e-6;
+  const Eigen::Matrix3d floored = floor_covariance(covariance, 0.02, 0.005);
+  // Along the wide direction unchanged (0.1 m), across it raised to the floor (0.02 m).
+  const Eigen::Vector2d along = rotation.col(0), across = rotation.col(1);
+  EXPECT_NEAR(along.dot(floored.topLeftCorner<2, 2>() * along), 0.01, 1e-12);
+  EXPECT_NEAR(across.dot(floored.topLeftCorner<2, 2>() * across), 4e-4, 1e-12);
+  EXPECT_NEAR(along.dot(floored.topLeftCorner<2, 2>() * across), 0.0, 1e-12);
+  EXPECT_DOUBLE_EQ(floored(2, 2), 0.005 * 0.005);
+  // A covariance already above the floor everywhere is returned as it is.
+  const Eigen::Matrix3d wide = Eigen::Vector3d(0.01, 0.02, 0.01).asDiagonal();
+  EXPECT_TRUE(floor_covariance(wide, 0.02, 0.005).isApprox(wide, 1e-15));
+}
+
 TEST(ZigguratNormal, MomentsAndDistributionOfTheStandardNormal) {
   const locd::ZigguratNormal normal;
   std::mt19937_64 rng(17);

@@ -232,15 +232,7 @@ std::optional<PoseEstimate> CeilingPfLocalizer::make_estimate(const Header& head
   out.header.stamp_ns = header.stamp_ns;
   out.header.frame_id = map_.frame_id;
   out.pose = e->pose.to_isometry();
-  Eigen::Matrix3d covariance = e->covariance;
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(covariance.topLeftCorner<2, 2>());
-  for (int i = 0; i < 2; ++i) {
-    const double missing = kPositionStddevFloor * kPositionStddevFloor - eigen.eigenvalues()(i);
-    if (missing > 0.0) {
-      covariance.topLeftCorner<2, 2>() += missing * eigen.eigenvectors().col(i) * eigen.eigenvectors().col(i).transpose();
-    }
-  }
-  covariance(2, 2) = std::max(covariance(2, 2), kHeadingStddevFloor * kHeadingStddevFloor);
+  const Eigen::Matrix3d covariance = floor_covariance(e->covariance, kPositionStddevFloor, kHeadingStddevFloor);
   out.covariance.setZero();
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) out.covariance(kPlanarIndex[r], kPlanarIndex[c]) = covariance(r, c);

@@ -108,4 +108,10 @@ ParticleCluster cluster_around(const std::vector<PoseParticle>& particles, const
 ParticleCluster main_cluster(const std::vector<PoseParticle>& particles, double radius,
                              const std::optional<Pose2>& previous_mode);
 
+// A cluster's (x, y, yaw) covariance raised to at least `position_stddev` along every direction
+// of the plane and `heading_stddev` in yaw, directions already wider unchanged. Once KLD sampling
+// has shrunk a converged set, the particles' spread falls below the error they carry (sample
+// impoverishment, and a map no finer than its cells); the published covariance must not.
+Eigen::Matrix3d floor_covariance(Eigen::Matrix3d covariance, double position_stddev, double heading_stddev);
+
 }  // namespace locd
