@@ -27,6 +27,8 @@ constexpr auto kTakeoverHeardFor = std::chrono::seconds(1);
 // by the cut-off side after the cable came back, which then thought itself alone.
 constexpr auto kHeartbeatEvery = std::chrono::milliseconds(100);
 constexpr auto kServerSilence = std::chrono::milliseconds(500);
+// Other servers remembered at most (a flood of made-up server ids takes no more memory).
+constexpr size_t kMaxServers = 1024;
 
 }  // namespace
 
@@ -373,6 +375,7 @@ void Server::on_server_alive(const ServerMember& member) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (member.id == config_.server_id) return;
+    if (server_heard_.size() >= kMaxServers && !server_heard_.count(member.id)) return;
     server_heard_[member.id] = std::chrono::steady_clock::now();
     const auto alive = fleet_.alive();
     const auto known = std::find_if(alive.begin(), alive.end(), [&](const ServerMember& m) { return m.id == member.id; });
