@@ -157,6 +157,18 @@ ParticleCluster cluster_around(const std::vector<PoseParticle>& particles, const
   return e;
 }
 
+std::vector<Particle2D> diagnostic_particles(const std::vector<PoseParticle>& particles, size_t shown) {
+  std::vector<Particle2D> out;
+  if (shown == 0 || particles.empty()) return out;
+  const size_t stride = (particles.size() + shown - 1) / shown;
+  out.reserve(particles.size() / stride + 1);
+  for (size_t i = 0; i < particles.size(); i += stride) {
+    const PoseParticle& p = particles[i];
+    out.push_back({p.pose.x, p.pose.y, p.pose.theta, p.weight * static_cast<double>(stride)});
+  }
+  return out;
+}
+
 Eigen::Matrix3d floor_covariance(Eigen::Matrix3d covariance, double position_stddev, double heading_stddev) {
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(covariance.topLeftCorner<2, 2>());
   for (int i = 0; i < 2; ++i) {

@@ -46,6 +46,23 @@ worker::ConfigureRequest configure_template(const ServerConfig& config) {
   return request;
 }
 
+// What the server announces (built once: the config and the catalog do not change).
+ServerInfoReport make_info(const ServerConfig& config, const PluginCatalog& catalog, int64_t started_ns) {
+  ServerInfoReport info;
+  info.server_id = config.server_id;
+  info.started_ns = started_ns;
+  info.weight = config.weight;
+  info.server_group = config.server_group;
+  for (const auto& name : catalog.names()) {
+    const auto library = catalog.find(name);
+    const auto& d = library->descriptor();
+    info.plugins.push_back({d.name, d.version ? d.version : "", d.description ? d.description : "",
+                            kind_names(d.consumes)});
+  }
+  info.rejected_plugins = catalog.rejected();
+  return info;
+}
+
 }  // namespace
 
 Server::Server(ServerConfig config, const PluginCatalog& catalog, OutputSink& sink, Logger& logger)
@@ -54,7 +71,8 @@ Server::Server(ServerConfig config, const PluginCatalog& catalog, OutputSink& si
       environment_{workers_, pool_, sink_, static_cast<size_t>(config_.queue_depth), config_.failures,
                    configure_template(config_), nullptr},
       state_file_(config_.state_directory), started_ns_(wall_clock_ns()), started_(std::chrono::steady_clock::now()),
-      fleet_(ServerMember{config_.server_id, config_.weight, config_.server_group}) {
+      fleet_(ServerMember{config_.server_id, config_.weight, config_.server_group}),
+      info_(make_info(config_, catalog_, started_ns_)) {
   pool_.on_task_error([this](const std::string& what) { logger_.log(LogLevel::kError, "server", "task failed: " + what); });
   environment_.forget = [this](const std::shared_ptr<Session>& session) {
     bool forgotten = false;
@@ -128,21 +146,6 @@ void Server::save_state() {
   }
 }
 
-ServerInfoReport Server::info() const {
-  ServerInfoReport info;
-  info.server_id = config_.server_id;
-  info.started_ns = started_ns_;
-  info.weight = config_.weight;
-  info.server_group = config_.server_group;
-  for (const auto& name : catalog_.names()) {
-    const auto library = catalog_.find(name);
-    const auto& d = library->descriptor();
-    info.plugins.push_back({d.name, d.version ? d.version : "", d.description ? d.description : "",
-                            kind_names(d.consumes)});
-  }
-  info.rejected_plugins = catalog_.rejected();
-  return info;
-}
 
 void Server::boot() {
   try {

@@ -86,7 +86,7 @@ class Reader {
   std::vector<T> array(size_t max, const char* what) {
     const size_t n = count(max, sizeof(T), what);
     std::vector<T> v(n);
-    if (n > 0) std::memcpy(v.data(), data_, n * sizeof(T));
+    if (n > 0) std::memcpy(static_cast<void*>(v.data()), data_, n * sizeof(T));  // T: plain values (floats, Eigen vectors)
     skip(n * sizeof(T));
     return v;
   }

@@ -8,17 +8,6 @@
 
 namespace locd::sim {
 
-namespace {
-constexpr int kPlanarIndex[3] = {0, 1, 5};  // x, y, yaw in (x, y, z, roll, pitch, yaw)
-}
-
-Eigen::Matrix3d planar_covariance(const Matrix6d& covariance) {
-  Eigen::Matrix3d P;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) P(i, j) = covariance(kPlanarIndex[i], kPlanarIndex[j]);
-  return P;
-}
-
 Nees nees(const Pose2& estimate, const Pose2& truth, const Eigen::Matrix3d& covariance) {
   Nees out;
   const Eigen::Vector2d e(estimate.x - truth.x, estimate.y - truth.y);

@@ -39,8 +39,6 @@ std::string number(double v, int digits = 2) {
   return text;
 }
 
-// A plugin pose is (x, y, z, roll, pitch, yaw); the filter holds (x, y, yaw).
-constexpr int kPlanarIndex[3] = {0, 1, 5};
 
 Eigen::Matrix3d diagonal_variance(const Eigen::Vector3d& stddev) { return stddev.cwiseAbs2().asDiagonal(); }
 
@@ -70,9 +68,7 @@ void CeilingPfLocalizer::set_pose(const PoseEstimate& pose) {
   if (!std::isfinite(mean.x) || !std::isfinite(mean.y) || !std::isfinite(mean.theta)) {
     throw InputError("initial pose: position and yaw must be finite");
   }
-  Eigen::Matrix3d cov;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) cov(r, c) = pose.covariance(kPlanarIndex[r], kPlanarIndex[c]);
+  Eigen::Matrix3d cov = planar_covariance(pose.covariance);
   const Eigen::LLT<Eigen::Matrix3d> llt(cov);
   if (!cov.allFinite() || llt.info() != Eigen::Success) cov = diagonal_variance(config_.initial_stddev);
   filter_->set_pose(mean, cov);
@@ -213,15 +209,7 @@ UpdateResult CeilingPfLocalizer::correct(const Header& header, const std::vector
     d.associations.push_back({static_cast<uint32_t>(i), a.landmark >= 0 ? map_.id(static_cast<size_t>(a.landmark)) : "",
                               static_cast<uint32_t>(a.candidates), a.normalized_error2});
   }
-  const auto& particles = filter_->particles();
-  const size_t shown = config_.diagnostics_particles;
-  if (shown > 0 && !particles.empty()) {
-    const size_t stride = (particles.size() + shown - 1) / shown;
-    for (size_t i = 0; i < particles.size(); i += stride) {
-      const Particle& p = particles[i];
-      d.particles.push_back({p.pose.x, p.pose.y, p.pose.theta, p.weight * static_cast<double>(stride)});
-    }
-  }
+  d.particles = diagnostic_particles(filter_->particles(), config_.diagnostics_particles);
   return result;
 }
 
@@ -233,9 +221,7 @@ std::optional<PoseEstimate> CeilingPfLocalizer::make_estimate(const Header& head
   out.header.frame_id = map_.frame_id;
   out.pose = e->pose.to_isometry();
   const Eigen::Matrix3d covariance = floor_covariance(e->covariance, kPositionStddevFloor, kHeadingStddevFloor);
-  out.covariance.setZero();
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) out.covariance(kPlanarIndex[r], kPlanarIndex[c]) = covariance(r, c);
+  out.covariance = pose_covariance(covariance);
   return out;
 }
 

@@ -9,26 +9,15 @@
 namespace locd::feature_ekf {
 namespace {
 
-// A plugin pose is (x, y, z, roll, pitch, yaw); the planar filters hold (x, y, yaw).
-constexpr int kPlanarIndex[3] = {0, 1, 5};
 // Added to a planar covariance before its Cholesky test, so a semi-definite one passes.
 constexpr double kSemiDefiniteSlack = 1e-12;
 // Added to the position covariance handed to the landmark filter, so it stays invertible.
 constexpr double kPositionVarianceFloor = 1e-6;
 
-Matrix6d embed_covariance(const Eigen::Matrix3d& P) {
-  Matrix6d C = Matrix6d::Zero();
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) C(kPlanarIndex[i], kPlanarIndex[j]) = P(i, j);
-  return C;
-}
-
 // The (x, y, yaw) block of a pose's covariance, symmetrised; InputError unless finite and
 // positive semi-definite.
-Eigen::Matrix3d planar_covariance(const PoseEstimate& estimate) {
-  Eigen::Matrix3d P;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) P(i, j) = estimate.covariance(kPlanarIndex[i], kPlanarIndex[j]);
+Eigen::Matrix3d checked_planar_covariance(const PoseEstimate& estimate) {
+  Eigen::Matrix3d P = planar_covariance(estimate.covariance);
   if (!Pose2::from_isometry(estimate.pose).vector().allFinite() || !P.allFinite()) {
     throw InputError("feature_ekf: initial pose or covariance is not finite");
   }
@@ -68,7 +57,7 @@ void LaserFeatureLocalizer::configure(const PluginContext& context, const Config
 
 void LaserFeatureLocalizer::set_pose(const PoseEstimate& estimate) {
   require(filter_ != nullptr);
-  const Eigen::Matrix3d P = planar_covariance(estimate);
+  const Eigen::Matrix3d P = checked_planar_covariance(estimate);
   filter_->set_pose(Pose2::from_isometry(estimate.pose).vector(), P);
 }
 
@@ -93,7 +82,7 @@ UpdateResult LaserFeatureLocalizer::on_scan(const LaserScan& scan) {
   estimate.header.stamp_ns = scan.header.stamp_ns;
   estimate.header.frame_id = filter_->filter().map().frame_id;
   estimate.pose = Pose2::from_vector(filter_->pose()).to_isometry();
-  estimate.covariance = embed_covariance(filter_->published_covariance());
+  estimate.covariance = pose_covariance(filter_->published_covariance());
   result.estimate = estimate;
   result.localization = outcome.localization;
 
@@ -163,7 +152,7 @@ void LandmarkLocalizer::configure(const PluginContext& context, const Config& co
 
 void LandmarkLocalizer::set_pose(const PoseEstimate& estimate) {
   require(filter_ != nullptr);
-  const Eigen::Matrix3d P = planar_covariance(estimate);
+  const Eigen::Matrix3d P = checked_planar_covariance(estimate);
   // Position (x = east, y = north) and velocity from the estimate; the velocity keeps the
   // configured uncertainty (a pose carries none for it).
   if (!estimate.linear_velocity.allFinite()) throw InputError("feature_ekf: initial velocity is not finite");

@@ -9,8 +9,6 @@
 namespace locd::grid_mcl {
 namespace {
 
-// A plugin pose is (x, y, z, roll, pitch, yaw); the filter holds (x, y, yaw).
-constexpr int kPlanarIndex[3] = {0, 1, 5};
 // The largest grid the grid topic carries (idl/locd.idl, GridMap.cells).
 constexpr size_t kMaxGridCells = 16'777'216;
 
@@ -64,9 +62,7 @@ void GridMclLocalizer::set_pose(const PoseEstimate& pose) {
   if (!std::isfinite(mean.x) || !std::isfinite(mean.y) || !std::isfinite(mean.theta)) {
     throw InputError("initial pose: position and yaw must be finite");
   }
-  Eigen::Matrix3d cov;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) cov(r, c) = pose.covariance(kPlanarIndex[r], kPlanarIndex[c]);
+  Eigen::Matrix3d cov = planar_covariance(pose.covariance);
   const double global = config_.global_localization_stddev * config_.global_localization_stddev;
   if (std::isfinite(cov(0, 0)) && std::isfinite(cov(1, 1)) && std::max(cov(0, 0), cov(1, 1)) >= global) {
     filter_->set_global();
@@ -105,15 +101,7 @@ UpdateResult GridMclLocalizer::on_scan(const LaserScan& scan) {
               {"injected", static_cast<double>(report.injected)},
               {"scan_fit", report.fit}};
   if (const auto e = filter_->estimate()) d.values.push_back({"cluster_mass", e->mass});
-  const auto& particles = filter_->particles();
-  const size_t shown = config_.diagnostics_particles;
-  if (shown > 0 && !particles.empty()) {
-    const size_t stride = (particles.size() + shown - 1) / shown;
-    for (size_t i = 0; i < particles.size(); i += stride) {
-      const PoseParticle& p = particles[i];
-      d.particles.push_back({p.pose.x, p.pose.y, p.pose.theta, p.weight * static_cast<double>(stride)});
-    }
-  }
+  d.particles = diagnostic_particles(filter_->particles(), config_.diagnostics_particles);
   return result;
 }
 
@@ -127,9 +115,7 @@ std::optional<PoseEstimate> GridMclLocalizer::make_estimate(const Header& header
   const double resolution = filter_->map().map.geometry().resolution;
   const Eigen::Matrix3d covariance =
       floor_covariance(e->covariance, kPositionStddevFloorCells * resolution, kHeadingStddevFloor);
-  out.covariance.setZero();
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) out.covariance(kPlanarIndex[r], kPlanarIndex[c]) = covariance(r, c);
+  out.covariance = pose_covariance(covariance);
   return out;
 }
 

@@ -1,7 +1,8 @@
 // grid_mcl's parameters (config/plugins/grid_mcl.yaml) read into Config: every key, its range and
 // its error message. Keys are Nav2 AMCL's, flat as in an amcl YAML; AMCL keys that have no
 // meaning inside locd (frames, topics, TF) are accepted and listed in `ignored`; do_beamskip: true
-// is refused (not implemented). Any other unknown key is an error.
+// is refused: locd has no beam skipping (README "AMCL -> grid_mcl"). Any other unknown key is an
+// error.
 #pragma once
 
 #include <string>

@@ -22,6 +22,7 @@
 
 #include "locd/sdk/geometry.hpp"
 #include "locd/sdk/resampling.hpp"
+#include "locd/sdk/types.hpp"
 
 namespace locd {
 
@@ -107,6 +108,10 @@ ParticleCluster cluster_around(const std::vector<PoseParticle>& particles, const
 // particle that fits one measurement well does not move the estimate). Empty set: mass 0.
 ParticleCluster main_cluster(const std::vector<PoseParticle>& particles, double radius,
                              const std::optional<Pose2>& previous_mode);
+
+// At most `shown` particles for the diagnostics topic: every k-th, its weight times k so the
+// weights still sum to the set's. None when `shown` is 0.
+std::vector<Particle2D> diagnostic_particles(const std::vector<PoseParticle>& particles, size_t shown);
 
 // A cluster's (x, y, yaw) covariance raised to at least `position_stddev` along every direction
 // of the plane and `heading_stddev` in yaw, directions already wider unchanged. Once KLD sampling

@@ -14,6 +14,22 @@ namespace locd {
 
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
+// A pose's covariance is over (x, y, z, roll, pitch, yaw); a planar one over (x, y, yaw). The
+// planar block of the first, and the first holding only the second (other entries zero).
+inline constexpr int kPlanarIndex[3] = {0, 1, 5};
+inline Eigen::Matrix3d planar_covariance(const Matrix6d& covariance) {
+  Eigen::Matrix3d planar;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) planar(i, j) = covariance(kPlanarIndex[i], kPlanarIndex[j]);
+  return planar;
+}
+inline Matrix6d pose_covariance(const Eigen::Matrix3d& planar) {
+  Matrix6d covariance = Matrix6d::Zero();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) covariance(kPlanarIndex[i], kPlanarIndex[j]) = planar(i, j);
+  return covariance;
+}
+
 struct Header {
   int64_t stamp_ns = 0;
   std::string frame_id;

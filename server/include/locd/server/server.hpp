@@ -75,7 +75,7 @@ class Server {
   void rebalance();
 
   void publish_all_status();
-  ServerInfoReport info() const;
+  const ServerInfoReport& info() const { return info_; }
   std::shared_ptr<Session> find(const std::string& robot_id) const;
   uint64_t messages_without_session() const;
 
@@ -144,6 +144,7 @@ class Server {
   };
   std::map<std::string, StoredRequest> requests_;
   FleetView fleet_;
+  const ServerInfoReport info_;  // announced at boot and then every heartbeat
   bool fleet_changed_ = false;
   std::chrono::steady_clock::time_point last_rebalance_{};
   std::chrono::steady_clock::time_point last_announce_ = std::chrono::steady_clock::now();  // boot() announced

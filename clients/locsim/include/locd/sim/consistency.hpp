@@ -30,8 +30,7 @@
 
 namespace locd::sim {
 
-// The (x, y, yaw) block of a pose covariance over (x, y, z, roll, pitch, yaw).
-Eigen::Matrix3d planar_covariance(const Matrix6d& covariance);
+// planar_covariance (locd/sdk/types.hpp): the (x, y, yaw) block of a pose covariance.
 
 struct Nees {
   double position = 0.0;          // 2 dof
