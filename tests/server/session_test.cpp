@@ -92,6 +92,15 @@ class SessionTest : public ::testing::Test {
       return c.used + c.rejected >= handled;
     });
   }
+  // The session counts an update before it publishes its outputs (it publishes outside its lock),
+  // so a test that reads the outputs waits for them, not for the counters.
+  bool wait_outputs(size_t count, int64_t below = 1'000'000'000) {
+    return sink_.wait_for([&](const auto&, const auto& outputs) {
+      size_t n = 0;
+      for (const auto& o : outputs) n += o.header.stamp_ns < below;
+      return n >= count;
+    });
+  }
   // Stamps of the outputs published after configure (header = measurement stamp), in order.
   std::vector<int64_t> output_stamps(int64_t below = 1'000'000'000) {
     std::vector<int64_t> stamps;
@@ -137,6 +146,7 @@ TEST_F(SessionTest, MeasurementsRunInStampOrderAcrossKinds) {
   session->push(scan(200));
   install(*session, kFixture, 1);
   ASSERT_TRUE(wait_counted(*session, 3));
+  ASSERT_TRUE(wait_outputs(3));
   EXPECT_EQ(output_stamps(), (std::vector<int64_t>{100, 200, 300}));
 }
 
@@ -151,6 +161,7 @@ TEST_F(SessionTest, FullQueueDropsTheOldestAndCountsIt) {
   EXPECT_EQ(c.used, 3u);
   EXPECT_EQ(c.dropped, 2u);
   EXPECT_EQ(c.updates, 3u);
+  ASSERT_TRUE(wait_outputs(3));
   EXPECT_EQ(output_stamps(), (std::vector<int64_t>{3, 4, 5}));
 }
 
@@ -165,6 +176,7 @@ TEST_F(SessionTest, FullQueueDropsTheOldestSensorFrameBeforeAnyOdometry) {
   EXPECT_EQ(session->status().counters.dropped, 3u);
   install(*session, kFixture, 1);
   ASSERT_TRUE(wait_counted(*session, 3));
+  ASSERT_TRUE(wait_outputs(3));
   EXPECT_EQ(output_stamps(), (std::vector<int64_t>{3, 5, 6}));
 }
 
@@ -231,6 +243,7 @@ TEST_F(SessionTest, TwoProducersAreServedOneRequestAtATimeInStampOrderPerKind) {
   scan_thread.join();
   ASSERT_TRUE(wait_counted(*session, 400));
   EXPECT_EQ(session->status().counters.used, 400u);
+  ASSERT_TRUE(wait_estimates(200));
   std::vector<int64_t> odometry_stamps;
   for (const auto& e : estimates()) odometry_stamps.push_back(e.header.stamp_ns);
   ASSERT_EQ(odometry_stamps.size(), 200u);
@@ -267,6 +280,7 @@ TEST_F(SessionTest, FailedSwitchKeepsTheOldPluginAndReportsTheError) {
   EXPECT_NE(status.message.find("position_stddev"), std::string::npos) << status.message;
   session->push(odometry(10));
   ASSERT_TRUE(wait_counted(*session, 1));
+  ASSERT_TRUE(wait_outputs(1));
   EXPECT_EQ(output_stamps(), (std::vector<int64_t>{10}));
 }
 
@@ -279,6 +293,7 @@ TEST_F(SessionTest, SupersededRequestIsNotInstalled) {
   session->push(odometry(1));
   ASSERT_TRUE(wait_counted(*session, 1));
   EXPECT_EQ(session->status().plugin, "faulty");
+  ASSERT_TRUE(wait_outputs(1));
   EXPECT_EQ(sink_.outputs().back().plugin, "faulty");
 }
 
