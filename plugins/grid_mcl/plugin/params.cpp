@@ -79,7 +79,8 @@ void read_filter(const Params& p, const Limits& limits, FilterConfig& f) {
 void read_state(const Params& params, StateCriteria& s) {
   const Params p = params.child("localization_state");
   p.expect_only({"fit_distance", "tracking_min_fit", "lost_max_fit", "tracking_min_cluster_mass", "lost_max_cluster_mass",
-                 "tracking_max_position_stddev", "tracking_max_yaw_stddev", "tracking_min_fast_slow_ratio"});
+                 "tracking_max_position_stddev", "tracking_max_yaw_stddev", "tracking_min_fast_slow_ratio",
+                 "tracking_max_see_through", "see_through_margin", "see_through_fraction", "see_through_beams"});
   s.fit_distance = p.number("fit_distance", s.fit_distance, Range{0.0, 100.0, true, false});
   s.tracking_min_fit = p.number("tracking_min_fit", s.tracking_min_fit, Range::closed(0.0, 1.0));
   s.lost_max_fit = p.number("lost_max_fit", s.lost_max_fit, Range::closed(0.0, s.tracking_min_fit));
@@ -91,6 +92,10 @@ void read_state(const Params& params, StateCriteria& s) {
   s.tracking_max_yaw_stddev = p.number("tracking_max_yaw_stddev", s.tracking_max_yaw_stddev, Range{0.0, 10.0, true, false});
   s.tracking_min_fast_slow_ratio =
       p.number("tracking_min_fast_slow_ratio", s.tracking_min_fast_slow_ratio, Range::closed(0.0, 1.0));
+  s.tracking_max_see_through = p.number("tracking_max_see_through", s.tracking_max_see_through, Range::closed(0.0, 1.0));
+  s.see_through_margin = p.number("see_through_margin", s.see_through_margin, Range::closed(0.0, 100.0));
+  s.see_through_fraction = p.number("see_through_fraction", s.see_through_fraction, Range{0.0, 1.0, true, false});
+  s.see_through_beams = static_cast<int>(p.integer("see_through_beams", s.see_through_beams, 2, 65536));
 }
 
 void read_initial_pose(const Params& p, Config& c) {

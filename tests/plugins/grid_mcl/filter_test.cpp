@@ -66,6 +66,42 @@ TEST(GridMclFilter, AKidnappedRobotIsDeclaredLostAndRelocalizes) {
   EXPECT_EQ(trace.last_state, LocalizationState::kTracking) << trace.samples.back().reason;
 }
 
+// Carried back along the same corridor, heading the same way: nearly every beam still ends on a
+// wall at the old pose, so the scan fit stays high. What gives the wrong pose away are the
+// returns from far ahead, which pass through where the map puts the corridor's end.
+TEST(GridMclFilter, AKidnapBackAlongTheSameCorridorIsReportedByTheReturnsThroughTheMapsWalls) {
+  RunSpec spec;
+  spec.scenario_file = corridor();
+  spec.seed = 2;
+  spec.duration_s = 35.0;
+  spec.kidnap_at = 25.0;
+  spec.kidnap_ahead_s = -15.0;
+  const auto reported_within = [&](const RunTrace& trace, double seconds) {
+    for (const TraceSample& s : trace.samples) {
+      if (s.t > spec.kidnap_at && s.t <= spec.kidnap_at + seconds && s.state != LocalizationState::kTracking) return true;
+    }
+    return false;
+  };
+  const auto wrong_at = [&](const RunTrace& trace, double t) {
+    for (const TraceSample& s : trace.samples) {
+      if (s.t >= t) return s;
+    }
+    return trace.samples.back();
+  };
+  const RunTrace checked = run_scenario(spec);
+  EXPECT_GT(wrong_at(checked, spec.kidnap_at + 0.5).error, 5.0) << "the kidnap is far";
+  EXPECT_TRUE(reported_within(checked, 5.0));
+  bool named = false;
+  for (const TraceSample& s : checked.samples) named = named || s.reason.find("pass through the map's walls") != std::string::npos;
+  EXPECT_TRUE(named);
+
+  spec.params["localization_state"] = "{tracking_max_see_through: 1.0}";  // the check off
+  const RunTrace unchecked = run_scenario(spec);
+  const TraceSample later = wrong_at(unchecked, spec.kidnap_at + 5.0);
+  EXPECT_GT(later.error, 5.0);
+  EXPECT_EQ(later.state, LocalizationState::kTracking) << "without it the wrong pose looks tracked: " << later.reason;
+}
+
 TEST(GridMclFilter, ThreadedWeightingGivesTheSameEstimates) {
   RunSpec spec;
   spec.scenario_file = corridor();

@@ -87,9 +87,9 @@ namespace {
 
 bool recovery_enabled(const FilterConfig& c) { return c.recovery_alpha_slow > 0.0 && c.recovery_alpha_fast > 0.0; }
 
-std::string percent(double share) {
+std::string percent(double share, int decimals = 0) {
   char text[32];
-  std::snprintf(text, sizeof text, "%.0f %%", 100.0 * share);
+  std::snprintf(text, sizeof text, "%.*f %%", decimals, 100.0 * share);
   return text;
 }
 
@@ -192,12 +192,18 @@ CorrectionReport GridParticleFilter::correct(const LaserScan& scan, const Pose2&
   } else {
     estimate_ = main_cluster(particles_, radius, estimate_ ? std::optional<Pose2>(estimate_->pose) : std::nullopt);
   }
-  assess(prepared, report);
+  const bool was_tracking = assessment_.state == LocalizationState::kTracking;
+  assess(prepared, scan, report);
   // Kidnapped, or a search settled on the wrong place: the filter holds one pose (its main
-  // cluster has tracking_min_cluster_mass) but the scan has not fitted it (fit below
-  // tracking_min_fit) for relocalize_after_lost_updates updates in a row: global localization.
-  const bool committed = estimate_->mass >= config_.state.tracking_min_cluster_mass;
-  lost_updates_ = committed && report.fit < config_.state.tracking_min_fit ? lost_updates_ + 1 : 0;
+  // cluster has tracking_min_cluster_mass) but the scan has not fitted it for
+  // relocalize_after_lost_updates updates in a row: global localization. Not fitting is a scan
+  // fit below tracking_min_fit, or returns passing through the map's walls in a streak that began
+  // while tracking (a set still converging sees through at grazing angles from its heading error).
+  const StateCriteria& c = config_.state;
+  const bool committed = estimate_->mass >= c.tracking_min_cluster_mass;
+  const bool misfit = report.fit < c.tracking_min_fit ||
+                      (report.see_through > c.tracking_max_see_through && (was_tracking || lost_updates_ > 0));
+  lost_updates_ = committed && misfit ? lost_updates_ + 1 : 0;
   const int patience = config_.filter.relocalize_after_lost_updates;
   if (patience > 0 && lost_updates_ >= patience) {
     const std::string reason = assessment_.reason;
@@ -269,10 +275,16 @@ void GridParticleFilter::weigh(const PreparedScan& scan, CorrectionReport& repor
   if (report.beams > 0) recovery_.update(average);
 }
 
-void GridParticleFilter::assess(const PreparedScan& scan, CorrectionReport& report) {
+void GridParticleFilter::assess(const PreparedScan& scan, const LaserScan& raw, CorrectionReport& report) {
   const StateCriteria& c = config_.state;
   const ParticleCluster& e = *estimate_;
   report.fit = laser_.fit(e.pose, scan, c.fit_distance);
+  if (c.tracking_max_see_through < 1.0) {
+    LaserModelConfig beams = config_.laser;
+    beams.max_beams = c.see_through_beams;
+    report.see_through = laser_.see_through(e.pose, prepare_scan(raw, beams), c.see_through_margin,
+                                           c.see_through_fraction);
+  }
   const double position_stddev =
       std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(e.covariance.topLeftCorner<2, 2>()).eigenvalues()(1)));
   const double yaw_stddev = std::sqrt(std::max(0.0, e.covariance(2, 2)));
@@ -288,6 +300,12 @@ void GridParticleFilter::assess(const PreparedScan& scan, CorrectionReport& repo
     assessment_ = {LocalizationState::kLost, mass_text + " < " + percent(c.lost_max_cluster_mass)};
   } else if (report.fit < c.tracking_min_fit) {
     assessment_ = {LocalizationState::kUncertain, fit_text + " < " + percent(c.tracking_min_fit)};
+  } else if (report.see_through > c.tracking_max_see_through) {
+    assessment_ = {LocalizationState::kUncertain, percent(report.see_through, 1) +
+                                                      " of the returns pass through the map's walls (by more than " +
+                                                      metres(c.see_through_margin) + " m + " +
+                                                      percent(c.see_through_fraction) + " of their range) > " +
+                                                      percent(c.tracking_max_see_through, 1)};
   } else if (e.mass < c.tracking_min_cluster_mass) {
     assessment_ = {LocalizationState::kUncertain, mass_text + " < " + percent(c.tracking_min_cluster_mass)};
   } else if (position_stddev > c.tracking_max_position_stddev) {

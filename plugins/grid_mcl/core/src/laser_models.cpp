@@ -185,4 +185,39 @@ double LaserModel::fit(const Pose2& pose, const PreparedScan& scan, double dista
   return hits > 0 ? static_cast<double>(close) / static_cast<double>(hits) : 0.0;
 }
 
+double LaserModel::see_through(const Pose2& pose, const PreparedScan& scan, double margin, double fraction) const {
+  // Each ray skips free space over the distance field (sphere tracing): from a point in a cell
+  // whose centre lies D cells from the nearest occupied cell's centre, no occupied cell meets the
+  // ray within D - sqrt(2) cells. Within a cell or so of a wall it goes on cell by cell
+  // (OccupancyMap::cast), so the answer is cast's over the whole ray.
+  const OccupancyMap& map = map_->map;
+  const GridGeometry& g = map.geometry();
+  const DistanceField& field = map_->field;
+  const double inv = 1.0 / g.resolution;
+  const Eigen::Vector2d start = (pose.transform(scan.sensor_position) - g.origin) * inv;
+  constexpr double kUnit = 1.0 / DistanceField::kSubdivision;  // cells per field unit
+  size_t hits = 0, through = 0;
+  for (size_t k = 0; k < scan.range.size(); ++k) {
+    if (!scan.hit[k]) continue;
+    ++hits;
+    const double end = ((1.0 - fraction) * scan.range[k] - margin) * inv;  // cells
+    const double angle = pose.theta + scan.bearing[k];
+    const Eigen::Vector2d dir(std::cos(angle), std::sin(angle));
+    for (double t = 0.0; t < end;) {
+      const Eigen::Vector2d p = start + t * dir;
+      if (p.x() < 0.0 || p.y() < 0.0 || p.x() >= g.width || p.y() >= g.height) {
+        through += map.cast(g.origin + p * g.resolution, angle, (end - t) * g.resolution).has_value();  // may re-enter
+        break;
+      }
+      const double clear = field.at(static_cast<int>(p.y()), static_cast<int>(p.x())) * kUnit - M_SQRT2;
+      if (clear < 1.0) {
+        through += map.cast(g.origin + p * g.resolution, angle, (end - t) * g.resolution).has_value();
+        break;
+      }
+      t += clear;
+    }
+  }
+  return hits > 0 ? static_cast<double>(through) / static_cast<double>(hits) : 0.0;
+}
+
 }  // namespace locd::grid_mcl

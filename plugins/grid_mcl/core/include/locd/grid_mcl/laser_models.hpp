@@ -60,6 +60,10 @@ class LaserModel {
   double factor_direct(const Pose2& pose, const PreparedScan& scan, double* mean_pz = nullptr) const;
   // Share of the scan's hits whose end lies within `distance` of an obstacle at this pose.
   double fit(const Pose2& pose, const PreparedScan& scan, double distance) const;
+  // The share of the scan's returns that, cast from `pose`, meet an occupied cell of the map more
+  // than `margin` + `fraction` of their range before their end: the laser saw through a wall the
+  // map puts there.
+  double see_through(const Pose2& pose, const PreparedScan& scan, double margin, double fraction) const;
 
   const LaserModelConfig& config() const { return config_; }
   size_t table_size() const { return table_.size(); }
