@@ -126,7 +126,9 @@ TEST(McapRecordReplay, LiveRunIsRecordedReadByNpmAndReplayedOfflineExactly) {
 
   // Into the running locd at 4x real time: the server computes the poses again. DDS orders
   // samples per topic only, so an odometry and a scan of one stamp may reach the session in the
-  // other order than live: the poses agree to millimetres, not to the last bit.
+  // other order than live: the poses agree to millimetres on average, not to the last bit, and
+  // a pose right after such a swap in a turn can be a few centimetres off (5.3 cm seen once with
+  // both cores loaded by the rest of the suite). A replay that lost its way would be metres off.
   ChildProcess into(binary("locsim"), {"replay", file.string(), "--domain", std::to_string(kDomainRecord), "--rate", "4",
                                        "--json", "--server-timeout", "20"},
                     (server.dir() / "into.log").string());
@@ -136,7 +138,7 @@ TEST(McapRecordReplay, LiveRunIsRecordedReadByNpmAndReplayedOfflineExactly) {
   EXPECT_EQ(d["mode"], "dds");
   EXPECT_GE(dr["matched"].get<double>(), 0.9 * dr["recorded_poses"].get<double>()) << dr.dump();
   EXPECT_LT(dr["mean_position_diff_m"].get<double>(), 0.01) << dr.dump();
-  EXPECT_LT(dr["max_position_diff_m"].get<double>(), 0.05) << dr.dump();
+  EXPECT_LT(dr["max_position_diff_m"].get<double>(), 0.15) << dr.dump();
   EXPECT_TRUE(server.process().running());
 }
 
