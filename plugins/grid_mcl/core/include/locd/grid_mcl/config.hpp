@@ -81,9 +81,10 @@ struct StateCriteria {
   double tracking_min_fast_slow_ratio = 0.5;  // w_fast / w_slow below: the filter injects, uncertain
   // The likelihood field looks only at where a beam ends, so a pose in the wrong one of two alike
   // corridors fits nearly every beam. What gives it away are the returns that, cast from the
-  // estimate over every beam of the scan, pass through a wall of the map more than
-  // see_through_margin before they end: above tracking_max_see_through of the returns, uncertain
-  // (and it counts towards relocalize_after_lost_updates); 1: off.
+  // estimate over see_through_beams beams of the scan, meet a wall of the map more than
+  // see_through_margin + see_through_fraction of their range before they end: above
+  // tracking_max_see_through of the returns, uncertain (and, in a streak that began while
+  // tracking, it counts towards relocalize_after_lost_updates); 1: off.
   double see_through_margin = 0.5;        // m
   double see_through_fraction = 0.1;      // of the return's range (a heading error grows with it)
   int see_through_beams = 180;            // beams checked, evenly spread over the scan
