@@ -244,14 +244,7 @@ void Server::on_session_request(SessionRequestMessage request) {
       session->stop(request.request_id, "stopped by request " + std::to_string(request.request_id));
       if (observer_) observer_->session_ended(robot_id);
     } else if (answer) {
-      SessionStatusReport status;
-      status.robot_id = robot_id;
-      status.stamp_ns = wall_clock_ns();
-      status.state = SessionState::kNoSession;
-      status.request_id = request.request_id;
-      status.request_ok = false;
-      status.message = "no session to stop for robot '" + robot_id + "'";
-      pool_.post([this, status] { sink_.publish_status(status); });
+      publish_refusal(robot_id, request.request_id, "no session to stop for robot '" + robot_id + "'");
     }
     return;
   }
@@ -340,19 +333,13 @@ void Server::reconsider(const std::string& robot_id) {
       }
       request = stored->second.request;
       if (!serving && sessions_.size() >= config_.max_sessions) {
-        SessionStatusReport status;
-        status.robot_id = robot_id;
-        status.stamp_ns = wall_clock_ns();
-        status.state = SessionState::kNoSession;
-        status.request_id = request.request_id;
-        status.request_ok = false;
-        status.message = "server '" + config_.server_id + "' already runs max_sessions = " +
-                         std::to_string(config_.max_sessions) +
-                         " sessions; stop one or raise max_sessions in the server config";
-        logger_.log(LogLevel::kWarning, robot_id, status.message);
+        const std::string message = "server '" + config_.server_id + "' already runs max_sessions = " +
+                                    std::to_string(config_.max_sessions) +
+                                    " sessions; stop one or raise max_sessions in the server config";
+        logger_.log(LogLevel::kWarning, robot_id, message);
         stored->second.handled = true;
         stored->second.handled_request_id = request.request_id;
-        pool_.post([this, status] { sink_.publish_status(status); });
+        publish_refusal(robot_id, request.request_id, message);
         return;
       }
       stored->second.handled = true;
@@ -587,6 +574,17 @@ void Server::on_invalid_robot_id(const std::string& topic, const std::string& er
 uint64_t Server::messages_refused_for_robot_id() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return refused_robot_ids_;
+}
+
+void Server::publish_refusal(const std::string& robot_id, uint64_t request_id, std::string message) {
+  SessionStatusReport status;
+  status.robot_id = robot_id;
+  status.stamp_ns = wall_clock_ns();
+  status.state = SessionState::kNoSession;
+  status.request_id = request_id;
+  status.request_ok = false;
+  status.message = std::move(message);
+  pool_.post([this, status] { sink_.publish_status(status); });
 }
 
 void Server::report_no_session(const std::string& robot_id, const std::string& topic, const std::string& detail) {

@@ -4,32 +4,20 @@
 // multi-modal, tracking again once the filter has recovered.
 #include <gtest/gtest.h>
 
-#include "locd/sim/offline_runner.hpp"
-#include "test_env.hpp"
+#include "offline_run.hpp"
 
 using namespace locd;
 
-namespace {
-sim::RunResult hall_run(uint64_t seed, double duration_s, std::optional<double> kidnap_at) {
-  sim::Scenario scenario = sim::load_scenario(test::source_dir() + "/config/scenarios/ceiling_hall.yaml");
-  if (kidnap_at) scenario.kidnap = sim::KidnapSpec{*kidnap_at, std::nullopt, 10.0};
-  sim::OfflineRunOptions options;
-  options.plugin_directories = {test::plugin_dir()};
-  options.seed = seed;
-  options.duration_s = duration_s;
-  return sim::run_offline(scenario, options);
-}
-}  // namespace
 
 TEST(CeilingPfState, TracksThenReportsAKidnapAndRecovers) {
-  const sim::RunResult plain = hall_run(3, 40.0, std::nullopt);
+  const sim::RunResult plain = test::offline_run("ceiling_hall", 3, 40.0, std::nullopt);
   ASSERT_GT(plain.summary.updates, 1000u);
   EXPECT_LT(plain.summary.localization.false_alarm_share, 0.01);
   EXPECT_GT(plain.summary.localization.tracking, plain.summary.updates * 95 / 100);
   EXPECT_LT(plain.summary.consistency.confidently_wrong_share, 0.01);
 
   // Seed 102: the filter recovers within seconds (augmented MCL), the state follows it.
-  const sim::RunResult kidnap = hall_run(102, 60.0, 30.0);
+  const sim::RunResult kidnap = test::offline_run("ceiling_hall", 102, 60.0, 30.0);
   const sim::StateSummary& l = kidnap.summary.localization;
   ASSERT_TRUE(l.detection_delay_s);
   EXPECT_LT(*l.detection_delay_s, 1.0);

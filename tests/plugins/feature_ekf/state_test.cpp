@@ -10,7 +10,7 @@
 #include "locd/feature_ekf/localization_monitor.hpp"
 #include "locd/feature_ekf/relocalizing_feature_ekf.hpp"
 #include "locd/feature_ekf/scan_agreement.hpp"
-#include "locd/sim/offline_runner.hpp"
+#include "offline_run.hpp"
 #include "synthetic_scan.hpp"
 #include "test_env.hpp"
 
@@ -216,34 +216,18 @@ TEST(RelocalizingFeatureEkf, LostPublishesAMapWideCovariance) {
   EXPECT_LT(ekf.published_covariance()(0, 0), 1.0);
 }
 
-namespace {
-sim::RunResult corridor_run(uint64_t seed, double duration_s, std::optional<double> kidnap_at,
-                            std::optional<double> wrong_start) {
-  sim::Scenario scenario = sim::load_scenario(test::source_dir() + "/config/scenarios/corridor.yaml");
-  if (kidnap_at) scenario.kidnap = sim::KidnapSpec{*kidnap_at, std::nullopt, 10.0};
-  if (wrong_start) {
-    scenario.localizer.wrong_start_min_distance_m = *wrong_start;
-    scenario.localizer.initial_pose_offset = {};
-  }
-  sim::OfflineRunOptions options;
-  options.plugin_directories = {test::plugin_dir()};
-  options.seed = seed;
-  options.duration_s = duration_s;
-  return sim::run_offline(scenario, options);
-}
-}  // namespace
 
 // The plugin as loaded, in the corridor: tracking without false alarms, a kidnap reported at once
 // and relocalized (seeds whose kidnap lands where the corridor is not symmetric), a wrong start
 // reported and relocalized.
 TEST(FeatureEkfRelocalization, CorridorKidnapAndWrongStart) {
-  const sim::RunResult plain = corridor_run(11, 30.0, std::nullopt, std::nullopt);
+  const sim::RunResult plain = test::offline_run("corridor", 11, 30.0, std::nullopt, std::nullopt);
   EXPECT_EQ(plain.summary.localization.false_alarms, 0u);
   EXPECT_EQ(plain.summary.localization.tracking, plain.summary.updates);
   EXPECT_LT(plain.summary.consistency.confidently_wrong_share, 0.01);
 
   for (uint64_t seed : {4u, 17u}) {
-    const sim::RunResult kidnap = corridor_run(seed, 60.0, 40.0, std::nullopt);
+    const sim::RunResult kidnap = test::offline_run("corridor", seed, 60.0, 40.0, std::nullopt);
     ASSERT_TRUE(kidnap.event);
     EXPECT_GT(kidnap.event->distance_m, 10.0);
     const sim::StateSummary& l = kidnap.summary.localization;
@@ -255,7 +239,7 @@ TEST(FeatureEkfRelocalization, CorridorKidnapAndWrongStart) {
     EXPECT_EQ(kidnap.estimates.back().state, LocalizationState::kTracking) << "seed " << seed;
   }
 
-  const sim::RunResult wrong = corridor_run(12, 30.0, std::nullopt, 15.0);
+  const sim::RunResult wrong = test::offline_run("corridor", 12, 30.0, std::nullopt, 15.0);
   ASSERT_TRUE(wrong.event);
   EXPECT_GT(wrong.event->distance_m, 15.0);
   ASSERT_TRUE(wrong.summary.localization.detection_delay_s);

@@ -205,11 +205,9 @@ double LaserModel::see_through(const Pose2& pose, const PreparedScan& scan, doub
     const Eigen::Vector2d dir(std::cos(angle), std::sin(angle));
     for (double t = 0.0; t < end;) {
       const Eigen::Vector2d p = start + t * dir;
-      if (p.x() < 0.0 || p.y() < 0.0 || p.x() >= g.width || p.y() >= g.height) {
-        through += map.cast(g.origin + p * g.resolution, angle, (end - t) * g.resolution).has_value();  // may re-enter
-        break;
-      }
-      const double clear = field.at(static_cast<int>(p.y()), static_cast<int>(p.x())) * kUnit - M_SQRT2;
+      const bool inside = p.x() >= 0.0 && p.y() >= 0.0 && p.x() < g.width && p.y() < g.height;
+      // Off the grid cast clips the ray to it (it may come back in).
+      const double clear = inside ? field.at(static_cast<int>(p.y()), static_cast<int>(p.x())) * kUnit - M_SQRT2 : 0.0;
       if (clear < 1.0) {
         through += map.cast(g.origin + p * g.resolution, angle, (end - t) * g.resolution).has_value();
         break;

@@ -108,6 +108,9 @@ class Server {
   // Erases a session from the router (claim withdrawn); under mutex_.
   void forget_locked(std::map<std::string, std::shared_ptr<Session>>::iterator it);
   void report_no_session(const std::string& robot_id, const std::string& topic, const std::string& detail);
+  // A session request (or stop) this server answers with a refusal: state no_session, the
+  // request not ok, `message` saying why. Written on the pool, so callable under the lock.
+  void publish_refusal(const std::string& robot_id, uint64_t request_id, std::string message);
 
   ServerConfig config_;
   const PluginCatalog& catalog_;
