@@ -306,7 +306,7 @@ TEST(ServerBadInput, EmptyAndAllNanScansAreRejected) {
   EXPECT_CONTAINS(s.last_error, "locd/scan: scan: empty (0 beams)");
   locd.send_scan("robot_nan", 2000, std::vector<float>(50, std::numeric_limits<float>::quiet_NaN()));
   s = locd.wait_status("robot_nan", [](const Status& st) { return st.rejected == 2; });
-  EXPECT_CONTAINS(s.last_error, "no beam has a finite range");
+  EXPECT_CONTAINS(s.last_error, "no beam is a return");
   std::vector<float> infinite(50, std::numeric_limits<float>::infinity());
   locd.send_scan("robot_nan", 3000, infinite);
   s = locd.wait_status("robot_nan", [](const Status& st) { return st.rejected == 3; });
