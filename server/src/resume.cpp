@@ -35,7 +35,7 @@ Eigen::Isometry3d pose_from_json(const Json& j) {
 
 std::optional<Eigen::Isometry3d> odometry_at(const Odometry& latest, int64_t stamp_ns) {
   const int64_t gap = stamp_ns - latest.header.stamp_ns;
-  if (gap < 0 || gap > kMaxOdometryExtrapolationNs) return std::nullopt;
+  if (gap < -kMaxOdometryExtrapolationNs || gap > kMaxOdometryExtrapolationNs) return std::nullopt;
   const double dt = static_cast<double>(gap) * 1e-9;
   Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
   const Eigen::Vector3d rotation = latest.angular_velocity * dt;

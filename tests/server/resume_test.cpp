@@ -33,9 +33,13 @@ TEST(Resume, OdometryIsCarriedOnByItsVelocity) {
   const auto turned = odometry_at(odometry(0, 0, 0, 0.1, 0.0, 0.5), 400'000'000);
   ASSERT_TRUE(turned);
   EXPECT_NEAR(Eigen::AngleAxisd(turned->linear()).angle(), 0.3, 1e-12);
-  // Not backwards in time, not across a gap longer than a second.
-  EXPECT_FALSE(odometry_at(o, 999'999'999));
+  // Backwards too (a scan stamped a little before the newest odometry): 0.1 s before, 0.1 m back.
+  const auto before = odometry_at(o, 900'000'000);
+  ASSERT_TRUE(before);
+  EXPECT_NEAR(before->translation().y(), 1.9, 1e-12);
+  // Not across a gap longer than a second, either way.
   EXPECT_FALSE(odometry_at(o, 1'000'000'000 + kMaxOdometryExtrapolationNs + 1));
+  EXPECT_FALSE(odometry_at(o, 1'000'000'000 - kMaxOdometryExtrapolationNs - 1));
 }
 
 TEST(Resume, ThePoseFollowsTheOdometryOverTheGap) {

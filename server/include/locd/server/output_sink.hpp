@@ -26,6 +26,9 @@ struct SessionCounters {
   uint64_t lost = 0;      // lost in transit: gaps in the sequence numbers of a sensor stream
   std::array<uint64_t, 6> lost_by_kind{};  // the same per measurement kind (variant index)
   double last_update_ms = 0.0;  // plugin compute time of the last update
+  // Messages taken and not yet used, dropped or rejected (queued, or with the plugin): always
+  // received = used + dropped + rejected + held.
+  uint64_t held = 0;
 };
 
 struct SessionStatusReport {
@@ -41,6 +44,7 @@ struct SessionStatusReport {
   int64_t initial_pose_stamp_ns = 0;  // stamp of the last initial pose the plugin holds (0 = none)
   uint32_t failures = 0;              // plugin failures (crash, exit, hang, bad output)
   LocalizationAssessment localization;  // from the plugin's last update that judged it
+  std::string waiting_for;  // what the held messages wait for (empty when none is held)
 };
 
 struct ServerInfoReport {
