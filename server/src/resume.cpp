@@ -101,6 +101,7 @@ std::map<std::string, ResumeState> StateFile::load(Logger& logger) const {
       if (!covariance.is_array() || covariance.size() != 36) throw std::runtime_error("covariance needs 36 numbers");
       for (int i = 0; i < 36; ++i) s.estimate.covariance(i / 6, i % 6) = covariance[i].get<double>();
       if (entry.contains("map_from_odom")) s.map_from_odom = pose_from_json(entry["map_from_odom"]);
+      s.claim_strength = entry.value("claim_strength", 0);
       validate(s.estimate);
       states[robot_id] = std::move(s);
     } catch (const std::exception& e) {
@@ -123,6 +124,7 @@ std::string StateFile::encode(const std::map<std::string, ResumeState>& states) 
     for (int i = 0; i < 36; ++i) covariance.push_back(s.estimate.covariance(i / 6, i % 6));
     entry["covariance"] = std::move(covariance);
     if (s.map_from_odom) entry["map_from_odom"] = pose_json(*s.map_from_odom);
+    if (s.claim_strength != 0) entry["claim_strength"] = s.claim_strength;
     robots[robot_id] = std::move(entry);
   }
   const Json root = {{"version", kStateFileVersion}, {"robots", std::move(robots)}};

@@ -83,6 +83,7 @@ TEST_F(StateFileTest, StatesRoundTrip) {
   a.estimate.covariance = Matrix6d::Identity() * 0.02;
   a.estimate.covariance(0, 1) = a.estimate.covariance(1, 0) = 0.005;
   a.map_from_odom = Eigen::Isometry3d(Eigen::Translation3d(0.1, 0.2, 0.0));
+  a.claim_strength = 123456789;
   ResumeState b;
   b.plugin = "faulty";
   b.request_id = 3;
@@ -98,8 +99,10 @@ TEST_F(StateFileTest, StatesRoundTrip) {
   EXPECT_TRUE(la.estimate.covariance.isApprox(a.estimate.covariance, 1e-15));
   ASSERT_TRUE(la.map_from_odom);
   EXPECT_TRUE(la.map_from_odom->isApprox(*a.map_from_odom, 1e-12));
+  EXPECT_EQ(la.claim_strength, 123456789);
   EXPECT_TRUE(loaded.at("robot.b").failed);
   EXPECT_FALSE(loaded.at("robot.b").map_from_odom);
+  EXPECT_EQ(loaded.at("robot.b").claim_strength, 0);
 }
 
 TEST_F(StateFileTest, AMissingOrMalformedFileIsEmptyAndBadEntriesAreSkipped) {

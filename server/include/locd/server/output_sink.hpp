@@ -70,8 +70,9 @@ class OutputSink {
   virtual void publish_server_info(const ServerInfoReport& info) = 0;
   // To the fleet's other servers (default: a lone server, nothing to tell). A claim is written
   // while this server serves the robot and withdrawn when it stops; a resume state is where the
-  // robot would resume on another server.
-  virtual void publish_claim(const std::string& robot_id, bool serving) {}
+  // robot would resume on another server. The claim's strength (fleet.hpp) is also the
+  // ownership strength of the robot's outputs: they are published only while claimed.
+  virtual void publish_claim(const std::string& robot_id, bool serving, int32_t strength) {}
   // Writes every claim this server holds again, each with the time it was first made: a server
   // that joins, or comes back after its network was cut (it had dropped the claims it could not
   // hear), learns them; a double claim is then settled for the newest as usual.
