@@ -126,9 +126,40 @@ DdsBridge::DdsBridge(int domain_id, std::string server_id, const Limits& limits,
       participant_(static_cast<dds_domainid_t>(domain_id)),
       server_info_(participant_, topics::kServerInfo, dds::QosProfile::kState),
       claims_(participant_, topics::kServingClaim, dds::QosProfile::kState),
-      resume_states_(participant_, topics::kResumeState, dds::QosProfile::kState) {}
+      resume_states_(participant_, topics::kResumeState, dds::QosProfile::kState),
+      deleter_([this] { deleter_loop(); }) {}
 
-DdsBridge::~DdsBridge() { disconnect(); }
+DdsBridge::~DdsBridge() {
+  disconnect();
+  {
+    std::lock_guard<std::mutex> lock(deleter_mutex_);
+    deleter_stopping_ = true;
+  }
+  deleter_wakes_.notify_all();
+  deleter_.join();
+}
+
+void DdsBridge::delete_later(std::shared_ptr<void> writers) {
+  if (!writers) return;
+  {
+    std::lock_guard<std::mutex> lock(deleter_mutex_);
+    to_delete_.push_back(std::move(writers));
+  }
+  deleter_wakes_.notify_all();
+}
+
+void DdsBridge::deleter_loop() {
+  std::unique_lock<std::mutex> lock(deleter_mutex_);
+  for (;;) {
+    deleter_wakes_.wait(lock, [this] { return deleter_stopping_ || !to_delete_.empty(); });
+    std::vector<std::shared_ptr<void>> batch;
+    batch.swap(to_delete_);
+    lock.unlock();
+    batch.clear();  // the writers go here (the last reference, unless one is still being written to)
+    lock.lock();
+    if (deleter_stopping_ && to_delete_.empty()) return;
+  }
+}
 
 std::shared_ptr<DdsBridge::RobotWriters> DdsBridge::writers_for(const std::string& robot_id) {
   std::lock_guard<std::mutex> lock(writers_mutex_);
@@ -140,7 +171,10 @@ std::shared_ptr<DdsBridge::RobotWriters> DdsBridge::writers_for(const std::strin
       for (auto it = robot_writers_.begin(); it != robot_writers_.end(); ++it) {
         if (it->second && (oldest == robot_writers_.end() || it->second->last_use < oldest->second->last_use)) oldest = it;
       }
-      if (oldest != robot_writers_.end()) robot_writers_.erase(oldest);
+      if (oldest != robot_writers_.end()) {
+        delete_later(oldest->second);
+        robot_writers_.erase(oldest);
+      }
     }
     slot = std::make_shared<RobotWriters>(participant_, robot_id);
   }
@@ -358,6 +392,7 @@ std::shared_ptr<DdsBridge::OwnedWriters> DdsBridge::owned_writers_for(const std:
   const auto writers = writers_for(robot_id);
   std::lock_guard<std::mutex> lock(writers->mutex);
   if (!writers->owned || writers->owned->strength != strength) {
+    delete_later(std::move(writers->owned));
     writers->owned = std::make_shared<OwnedWriters>(participant_, writers->partitions, strength);
   }
   return writers->owned;
@@ -410,8 +445,8 @@ void DdsBridge::publish_claim(const std::string& robot_id, bool serving, int32_t
     owned_writers_for(robot_id);
     return;
   }
-  // Deleted: DDS unregisters the robot's instances, so another server's outputs reach it.
-  std::shared_ptr<OwnedWriters> released;
+  // Deleted (on the deleter thread): DDS unregisters the robot's instances, so another server's
+  // outputs reach it.
   std::shared_ptr<RobotWriters> writers;
   {
     std::lock_guard<std::mutex> lock(writers_mutex_);
@@ -420,7 +455,7 @@ void DdsBridge::publish_claim(const std::string& robot_id, bool serving, int32_t
   }
   if (!writers) return;
   std::lock_guard<std::mutex> lock(writers->mutex);
-  released.swap(writers->owned);
+  delete_later(std::move(writers->owned));
 }
 
 void DdsBridge::republish_claims() {

@@ -14,13 +14,18 @@
 // grids, goals) are written only while this server claims the robot, by writers with exclusive
 // ownership whose strength is the claim's; a new claim of another strength makes them anew, and
 // withdrawing the claim deletes them (DDS then lets the robot take another server's outputs).
-// Statuses stay shared: any server may tell a robot why it is not served.
+// Statuses stay shared: any server may tell a robot why it is not served. Writers are deleted on
+// a thread of the bridge's own: a claim is withdrawn on the DDS listener thread a stop request
+// arrives on, where Cyclone's deletion of a writer would wait for that very thread.
 #pragma once
 
+#include <condition_variable>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "locd/dds/dds.hpp"
 #include "locd/server/log.hpp"
@@ -62,6 +67,9 @@ class DdsBridge : public OutputSink {
   // Its output writers at the strength of this server's claim (made if needed); none when this
   // server does not claim the robot.
   std::shared_ptr<OwnedWriters> owned_writers_for(const std::string& robot_id);
+  // Writers to delete, handed to the deleter thread (never deleted on the caller's thread).
+  void delete_later(std::shared_ptr<void> writers);
+  void deleter_loop();
 
   std::string server_id_;  // stamped on every status
   Limits limits_;
@@ -83,6 +91,11 @@ class DdsBridge : public OutputSink {
   uint64_t use_counter_ = 0;
   RobotWriterPresence presence_{kMaxRobotsTracked};  // session ownership; before the readers using it
   std::unique_ptr<Readers> readers_;
+  std::mutex deleter_mutex_;
+  std::condition_variable deleter_wakes_;
+  std::vector<std::shared_ptr<void>> to_delete_;  // under deleter_mutex_
+  bool deleter_stopping_ = false;
+  std::thread deleter_;  // last: started when everything above exists
 };
 
 }  // namespace locd::server
