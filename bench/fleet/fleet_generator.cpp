@@ -43,7 +43,7 @@ int main(int argc, char** argv) {
     fleet.push_back({id, dds::Writer<locd_msg_Odometry>(participant, topics::kOdometry, dds::QosProfile::kSensor, 8, p),
                      dds::Writer<locd_msg_LaserScan>(participant, topics::kScan, dds::QosProfile::kSensor, 8, p),
                      dds::Writer<locd_msg_PoseEstimate>(participant, topics::kPose, dds::QosProfile::kPose, 8, p),
-                     dds::Writer<locd_msg_Diagnostics>(participant, topics::kDiagnostics, dds::QosProfile::kSensor, 8, p)});
+                     dds::Writer<locd_msg_Diagnostics>(participant, topics::kDiagnostics, dds::QosProfile::kOutput, 8, p)});
   }
   std::this_thread::sleep_for(std::chrono::seconds(2));  // discovery
   LaserScan scan;

@@ -40,7 +40,11 @@ std::unique_ptr<dds_qos_t, QosDeleter> make_qos(QosProfile profile, int depth) {
     case QosProfile::kPose:
       dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, 1);
       break;
+    case QosProfile::kOutput:
+      dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, depth);
+      break;
     case QosProfile::kState:
+    case QosProfile::kOutputState:
     case QosProfile::kRos2Latched:
       dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, 1);
       dds_qset_durability(qos.get(), DDS_DURABILITY_TRANSIENT_LOCAL);
@@ -53,7 +57,12 @@ std::unique_ptr<dds_qos_t, QosDeleter> make_qos(QosProfile profile, int depth) {
       dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, depth);
       break;
   }
+  if (exclusive_ownership(profile)) dds_qset_ownership(qos.get(), DDS_OWNERSHIP_EXCLUSIVE);
   return qos;
+}
+
+bool exclusive_ownership(QosProfile profile) {
+  return profile == QosProfile::kPose || profile == QosProfile::kOutput || profile == QosProfile::kOutputState;
 }
 
 dds_entity_t create_topic(const Participant& p, const dds_topic_descriptor_t& d, const std::string& name) {

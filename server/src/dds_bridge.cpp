@@ -58,36 +58,51 @@ auto convert(const Wire& m, const Limits& limits) -> decltype(dds::from_wire(m, 
 
 }  // namespace
 
-// One robot's output writers, in its partition robot.<robot_id>. Pose, diagnostics and status are
-// made with it; maps, grids and goals when the robot's plugin first publishes one.
-struct DdsBridge::RobotWriters {
+// One robot's output writers at one claim's ownership strength, in its partition robot.<robot_id>.
+// Pose and diagnostics are made with them; maps, grids and goals when the robot's plugin first
+// publishes one.
+struct DdsBridge::OwnedWriters {
   template <typename T>
   struct Lazy {
     const dds::Writer<T>& get(std::mutex& mutex, const dds::Participant& p, const char* topic,
-                              const dds::Partitions& partitions) {
+                              const dds::Partitions& partitions, int32_t strength) {
       std::lock_guard<std::mutex> lock(mutex);
-      if (!writer) writer = std::make_unique<dds::Writer<T>>(p, topic, dds::QosProfile::kState, 8, partitions);
+      if (!writer) {
+        writer = std::make_unique<dds::Writer<T>>(p, topic, dds::QosProfile::kOutputState, 8, partitions, strength);
+      }
       return *writer;
     }
     std::unique_ptr<dds::Writer<T>> writer;
   };
 
-  RobotWriters(const dds::Participant& p, const std::string& robot_id)
-      : partitions{topics::robot_partition(robot_id)},
-        pose(p, topics::kPose, dds::QosProfile::kPose, 8, partitions),
-        diagnostics(p, topics::kDiagnostics, dds::QosProfile::kSensor, 8, partitions),
-        status(p, topics::kSessionStatus, dds::QosProfile::kState, 8, partitions) {}
+  OwnedWriters(const dds::Participant& p, const dds::Partitions& partitions, int32_t strength)
+      : partitions(partitions),
+        strength(strength),
+        pose(p, topics::kPose, dds::QosProfile::kPose, 8, partitions, strength),
+        diagnostics(p, topics::kDiagnostics, dds::QosProfile::kOutput, 8, partitions, strength) {}
 
-  dds::Partitions partitions;
+  const dds::Partitions partitions;
+  const int32_t strength;
   dds::Writer<locd_msg_PoseEstimate> pose;
   dds::Writer<locd_msg_Diagnostics> diagnostics;
-  dds::Writer<locd_msg_SessionStatus> status;
   std::mutex mutex;  // guards the lazy writers' creation
   Lazy<locd_msg_GridMap> grid;
   Lazy<locd_msg_PointCloudMap> map_cloud;
   Lazy<locd_msg_LandmarkMap> landmark_map;
   Lazy<locd_msg_ExplorationGoal> exploration_goal;
-  uint64_t last_use = 0;  // under DdsBridge::writers_mutex_
+};
+
+// One robot's writers, in its partition: the status (shared), and the outputs while claimed.
+struct DdsBridge::RobotWriters {
+  RobotWriters(const dds::Participant& p, const std::string& robot_id)
+      : partitions{topics::robot_partition(robot_id)},
+        status(p, topics::kSessionStatus, dds::QosProfile::kState, 8, partitions) {}
+
+  dds::Partitions partitions;
+  dds::Writer<locd_msg_SessionStatus> status;
+  std::mutex mutex;                     // guards `owned`
+  std::shared_ptr<OwnedWriters> owned;  // while this server claims the robot
+  uint64_t last_use = 0;                // under DdsBridge::writers_mutex_
 };
 
 struct DdsBridge::Readers {
@@ -111,9 +126,40 @@ DdsBridge::DdsBridge(int domain_id, std::string server_id, const Limits& limits,
       participant_(static_cast<dds_domainid_t>(domain_id)),
       server_info_(participant_, topics::kServerInfo, dds::QosProfile::kState),
       claims_(participant_, topics::kServingClaim, dds::QosProfile::kState),
-      resume_states_(participant_, topics::kResumeState, dds::QosProfile::kState) {}
+      resume_states_(participant_, topics::kResumeState, dds::QosProfile::kState),
+      deleter_([this] { deleter_loop(); }) {}
 
-DdsBridge::~DdsBridge() { disconnect(); }
+DdsBridge::~DdsBridge() {
+  disconnect();
+  {
+    std::lock_guard<std::mutex> lock(deleter_mutex_);
+    deleter_stopping_ = true;
+  }
+  deleter_wakes_.notify_all();
+  deleter_.join();
+}
+
+void DdsBridge::delete_later(std::shared_ptr<void> writers) {
+  if (!writers) return;
+  {
+    std::lock_guard<std::mutex> lock(deleter_mutex_);
+    to_delete_.push_back(std::move(writers));
+  }
+  deleter_wakes_.notify_all();
+}
+
+void DdsBridge::deleter_loop() {
+  std::unique_lock<std::mutex> lock(deleter_mutex_);
+  for (;;) {
+    deleter_wakes_.wait(lock, [this] { return deleter_stopping_ || !to_delete_.empty(); });
+    std::vector<std::shared_ptr<void>> batch;
+    batch.swap(to_delete_);
+    lock.unlock();
+    batch.clear();  // the writers go here (the last reference, unless one is still being written to)
+    lock.lock();
+    if (deleter_stopping_ && to_delete_.empty()) return;
+  }
+}
 
 std::shared_ptr<DdsBridge::RobotWriters> DdsBridge::writers_for(const std::string& robot_id) {
   std::lock_guard<std::mutex> lock(writers_mutex_);
@@ -125,7 +171,10 @@ std::shared_ptr<DdsBridge::RobotWriters> DdsBridge::writers_for(const std::strin
       for (auto it = robot_writers_.begin(); it != robot_writers_.end(); ++it) {
         if (it->second && (oldest == robot_writers_.end() || it->second->last_use < oldest->second->last_use)) oldest = it;
       }
-      if (oldest != robot_writers_.end()) robot_writers_.erase(oldest);
+      if (oldest != robot_writers_.end()) {
+        delete_later(oldest->second);
+        robot_writers_.erase(oldest);
+      }
     }
     slot = std::make_shared<RobotWriters>(participant_, robot_id);
   }
@@ -258,7 +307,7 @@ void DdsBridge::connect(Server& server) {
   readers->claims = dds::Reader<locd_msg_ServingClaim>(
       participant_, topics::kServingClaim, dds::QosProfile::kState,
       [&server](const locd_msg_ServingClaim& m) {
-        server.on_claim(dds::to_string(m.robot_id), dds::to_string(m.server_id), true, m.since_ns);
+        server.on_claim(dds::to_string(m.robot_id), dds::to_string(m.server_id), true, m.since_ns, m.strength);
       },
       8, {}, nullptr,
       [&server](const locd_msg_ServingClaim& key, dds::InstanceGone) {
@@ -312,6 +361,8 @@ void DdsBridge::publish_status(const SessionStatusReport& s) {
   wire->failures = s.failures;
   wire->localization = wire_localization(s.localization.state);
   copy_truncated(wire->localization_reason, s.localization.reason);
+  wire->held = s.counters.held;
+  copy_truncated(wire->waiting_for, s.waiting_for);
   wire->lost = s.counters.lost;
   std::array<locd_msg_StreamCount, 6> lost{};
   uint32_t streams = 0;
@@ -327,53 +378,95 @@ void DdsBridge::publish_status(const SessionStatusReport& s) {
   writers_for(s.robot_id)->status.write(*wire);
 }
 
+std::shared_ptr<DdsBridge::OwnedWriters> DdsBridge::owned_writers_for(const std::string& robot_id) {
+  int32_t strength = 0;
+  {
+    std::lock_guard<std::mutex> lock(fleet_mutex_);
+    const auto claim = claimed_.find(robot_id);
+    if (claim == claimed_.end()) {
+      ++outputs_unclaimed_;
+      return nullptr;
+    }
+    strength = claim->second.strength;
+  }
+  const auto writers = writers_for(robot_id);
+  std::lock_guard<std::mutex> lock(writers->mutex);
+  if (!writers->owned || writers->owned->strength != strength) {
+    delete_later(std::move(writers->owned));
+    writers->owned = std::make_shared<OwnedWriters>(participant_, writers->partitions, strength);
+  }
+  return writers->owned;
+}
+
 void DdsBridge::publish_outputs(const std::string& robot_id, const std::string& plugin, const Header& header,
                                 const UpdateResult& result, double update_ms) {
-  const auto writers = writers_for(robot_id);
+  // Not claimed (any more): the server stopped serving the robot, or handed it to another
+  // server, while this update was with the plugin. Another server's outputs are the robot's now.
+  const auto writers = owned_writers_for(robot_id);
+  if (!writers) return;
   auto& w = *writers;
+  const auto& p = participant_;
+  const auto& at = w.partitions;
   if (result.estimate) dds::write(w.pose, robot_id, *result.estimate, plugin, update_ms);
   if (!result.diagnostics.empty()) dds::write(w.diagnostics, robot_id, header, plugin, result.diagnostics);
-  if (result.grid) {
-    dds::write(w.grid.get(w.mutex, participant_, topics::kGrid, w.partitions), robot_id, header, *result.grid);
-  }
+  if (result.grid) dds::write(w.grid.get(w.mutex, p, topics::kGrid, at, w.strength), robot_id, header, *result.grid);
   if (result.map_cloud) {
-    dds::write(w.map_cloud.get(w.mutex, participant_, topics::kMapCloud, w.partitions), robot_id, header,
-               *result.map_cloud);
+    dds::write(w.map_cloud.get(w.mutex, p, topics::kMapCloud, at, w.strength), robot_id, header, *result.map_cloud);
   }
   if (result.landmark_map) {
-    dds::write(w.landmark_map.get(w.mutex, participant_, topics::kLandmarkMap, w.partitions), robot_id, header,
+    dds::write(w.landmark_map.get(w.mutex, p, topics::kLandmarkMap, at, w.strength), robot_id, header,
                *result.landmark_map);
   }
   if (result.exploration_goal) {
-    dds::write(w.exploration_goal.get(w.mutex, participant_, topics::kExplorationGoal, w.partitions), robot_id,
+    dds::write(w.exploration_goal.get(w.mutex, p, topics::kExplorationGoal, at, w.strength), robot_id,
                *result.exploration_goal, plugin);
   }
 }
 
-void DdsBridge::publish_claim(const std::string& robot_id, bool serving) {
+void DdsBridge::publish_claim(const std::string& robot_id, bool serving, int32_t strength) {
   locd_msg_ServingClaim claim;
   std::memset(&claim, 0, sizeof claim);
   copy_truncated(claim.robot_id, robot_id);
   copy_truncated(claim.server_id, server_id_);
   claim.since_ns = wall_clock_ns();
-  std::lock_guard<std::mutex> lock(fleet_mutex_);
-  if (serving) {
-    claims_.write(claim);
-    claimed_since_[robot_id] = claim.since_ns;
-  } else {
-    claimed_since_.erase(robot_id);
-    dds::check(dds_dispose(claims_.handle(), &claim), "withdraw a claim");
+  claim.strength = strength;
+  {
+    std::lock_guard<std::mutex> lock(fleet_mutex_);
+    if (serving) {
+      claims_.write(claim);
+      claimed_[robot_id] = {claim.since_ns, strength};
+    } else {
+      claimed_.erase(robot_id);
+      dds::check(dds_dispose(claims_.handle(), &claim), "withdraw a claim");
+    }
   }
+  if (serving) {
+    // Made now, so the robot's readers have matched them by the first pose.
+    owned_writers_for(robot_id);
+    return;
+  }
+  // Deleted (on the deleter thread): DDS unregisters the robot's instances, so another server's
+  // outputs reach it.
+  std::shared_ptr<RobotWriters> writers;
+  {
+    std::lock_guard<std::mutex> lock(writers_mutex_);
+    const auto it = robot_writers_.find(robot_id);
+    if (it != robot_writers_.end()) writers = it->second;
+  }
+  if (!writers) return;
+  std::lock_guard<std::mutex> lock(writers->mutex);
+  delete_later(std::move(writers->owned));
 }
 
 void DdsBridge::republish_claims() {
   std::lock_guard<std::mutex> lock(fleet_mutex_);
-  for (const auto& [robot_id, since_ns] : claimed_since_) {
+  for (const auto& [robot_id, held] : claimed_) {
     locd_msg_ServingClaim claim;
     std::memset(&claim, 0, sizeof claim);
     copy_truncated(claim.robot_id, robot_id);
     copy_truncated(claim.server_id, server_id_);
-    claim.since_ns = since_ns;
+    claim.since_ns = held.since_ns;
+    claim.strength = held.strength;
     claims_.write(claim);
   }
 }

@@ -30,7 +30,18 @@ double score(const std::string& robot_id, const ServerMember& server) {
   return -server.weight / std::log(u);
 }
 
+// 2025-01-01T00:00:00Z, and the largest term a strength holds.
+constexpr int64_t kStrengthEpochS = 1735689600;
+constexpr int64_t kMaxTerm = (int64_t{1} << 23) - 1;
+
 }  // namespace
+
+int32_t claim_strength(const std::string& server_id, int32_t strongest_known, int64_t wall_ns) {
+  const int64_t minutes = (wall_ns / 1'000'000'000 - kStrengthEpochS) / 60;
+  const int64_t term = std::clamp<int64_t>(std::max<int64_t>(minutes, (strongest_known >> 8) + 1), 1, kMaxTerm);
+  const int64_t slot = static_cast<int64_t>(pair_hash("", server_id) & 0xff);
+  return static_cast<int32_t>((term << 8) | slot);
+}
 
 std::vector<std::string> rendezvous_order(const std::string& robot_id, const std::string& group,
                                           const std::vector<ServerMember>& servers) {
@@ -61,9 +72,10 @@ void FleetView::server_gone(const std::string& server_id) {
   }
 }
 
-void FleetView::claim(const std::string& robot_id, const std::string& server_id, bool serving, int64_t since_ns) {
+void FleetView::claim(const std::string& robot_id, const std::string& server_id, bool serving, int64_t since_ns,
+                      int32_t strength) {
   if (serving) {
-    claims_[robot_id][server_id] = since_ns;
+    claims_[robot_id][server_id] = {since_ns, strength};
     return;
   }
   auto it = claims_.find(robot_id);
@@ -99,13 +111,20 @@ FleetView::Decision FleetView::decide(const std::string& robot_id, const std::st
     return it == order.end() ? order.size() : static_cast<size_t>(it - order.begin());
   };
   if (serving) {
-    // Settle a double claim: the older claim stops (ties: the lower rank).
-    const auto& claims = claims_.count(robot_id) ? claims_.at(robot_id) : std::map<std::string, int64_t>{};
-    const auto mine = claims.find(self_.id);
-    const int64_t my_since = mine == claims.end() ? 0 : mine->second;
+    // Settle a double claim: the weaker claim stops (equal strengths: the older, then the lower
+    // rank), as DDS gives the robot the stronger claim's outputs.
+    const auto& claims = claims_.count(robot_id) ? claims_.at(robot_id) : std::map<std::string, Claim>{};
+    const auto found = claims.find(self_.id);
+    const Claim mine = found == claims.end() ? Claim{} : found->second;
     for (const auto& other : others) {
-      const int64_t since = claims.at(other);
-      if (since > my_since || (since == my_since && rank(other) < rank(self_.id))) return Decision::kYield;
+      const Claim& theirs = claims.at(other);
+      if (theirs.strength != mine.strength) {
+        if (theirs.strength > mine.strength) return Decision::kYield;
+        continue;
+      }
+      if (theirs.since_ns > mine.since_ns || (theirs.since_ns == mine.since_ns && rank(other) < rank(self_.id))) {
+        return Decision::kYield;
+      }
     }
     return Decision::kServe;
   }

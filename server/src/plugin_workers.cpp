@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstring>
 #include <deque>
+#include <fstream>
 #include <future>
 #include <sstream>
 #include <stdexcept>
@@ -30,8 +31,15 @@ using Clock = std::chrono::steady_clock;
 constexpr int kTickMs = 25;
 constexpr int kCheckEveryMs = 10;
 constexpr size_t kReadChunk = 256 * 1024;
-// The channel's fd number inside the worker (locd-worker --channel-fd).
+// The channel's and the liveness socket's fd numbers inside the worker (locd-worker --channel-fd,
+// --liveness-fd).
 constexpr int kWorkerChannelFd = 3;
+constexpr int kWorkerLivenessFd = 4;
+// Liveness: a byte to every worker this often; its ping thread sends it back.
+constexpr auto kPingPeriod = std::chrono::milliseconds(200);
+// What epoll tells about a worker: data.u64 = key * kEventKinds + kind.
+constexpr uint64_t kEventKinds = 4;
+enum EventKind : uint64_t { kChannelEvent = 0, kExitEvent = 1, kLivenessEvent = 2 };
 // After a SIGKILL, how long shutdown waits for the kernel to reap a worker.
 constexpr auto kReapAfterKill = std::chrono::milliseconds(1000);
 
@@ -51,6 +59,22 @@ std::string seconds(double s) {
   std::ostringstream out;
   out << s << " s";
   return out.str();
+}
+
+// What the kernel says of a process that does not answer (field 3 of /proc/PID/stat).
+std::string process_state(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string text;
+  std::getline(in, text);
+  const size_t close = text.rfind(')');
+  if (close == std::string::npos || close + 2 >= text.size()) return "its state unknown";
+  switch (text[close + 2]) {
+    case 'T': return "the process was stopped (SIGSTOP)";
+    case 't': return "the process was stopped by a debugger";
+    case 'D': return "the process was in an uninterruptible wait";
+    case 'Z': return "the process had ended";
+    default: return std::string("the process was in state ") + text[close + 2];
+  }
 }
 
 }  // namespace
@@ -76,9 +100,10 @@ struct PluginWorkers::SpawnRequest {
 
 struct PluginWorkers::Worker {
   uint64_t key = 0;
-  pid_t pid = 0;
+  pid_t pid = 0;  // also its process group: everything the plugin starts is killed with it
   int pidfd = -1;
   int fd = -1;
+  int liveness_fd = -1;
   std::string plugin;
 
   struct Request {
@@ -101,6 +126,10 @@ struct PluginWorkers::Worker {
   std::string kill_reason;
 
   std::string inbox;  // I/O thread only
+  // Liveness (I/O thread only): the ping not answered yet, and when the next is due.
+  bool pinging = false;  // from its first liveness byte on (a worker still starting is not pinged)
+  bool ping_outstanding = false;
+  Clock::time_point ping_sent{}, next_ping{};
 };
 
 PluginWorkers::PluginWorkers(WorkerSettings settings, Limits limits, Logger& logger)
@@ -123,9 +152,15 @@ PluginWorkers::~PluginWorkers() {
 }
 
 std::shared_ptr<PluginWorkers::Worker> PluginWorkers::start_worker(const std::shared_ptr<const PluginLibrary>& library) {
-  int channel[2];
+  int channel[2], liveness[2];
   if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, channel) != 0) {
     throw std::runtime_error(std::string("cannot make a worker channel: ") + std::strerror(errno));
+  }
+  if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, liveness) != 0) {
+    const int error = errno;
+    close(channel[0]);
+    close(channel[1]);
+    throw std::runtime_error(std::string("cannot make a worker's liveness socket: ") + std::strerror(error));
   }
   const std::string exe = settings_.executable.string();
   const std::string limits = std::to_string(limits_.max_scan_beams) + "," + std::to_string(limits_.max_cloud_points) +
@@ -137,6 +172,8 @@ std::shared_ptr<PluginWorkers::Worker> PluginWorkers::start_worker(const std::sh
                                               library->file().string(),
                                               "--channel-fd",
                                               std::to_string(kWorkerChannelFd),
+                                              "--liveness-fd",
+                                              std::to_string(kWorkerLivenessFd),
                                               "--parent",
                                               std::to_string(getpid()),
                                               "--memory-limit-mb",
@@ -150,31 +187,48 @@ std::shared_ptr<PluginWorkers::Worker> PluginWorkers::start_worker(const std::sh
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_adddup2(&actions, channel[1], kWorkerChannelFd);
+  posix_spawn_file_actions_adddup2(&actions, liveness[1], kWorkerLivenessFd);
+  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
   posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
-  posix_spawn_file_actions_addclosefrom_np(&actions, kWorkerChannelFd + 1);
+  posix_spawn_file_actions_addclosefrom_np(&actions, kWorkerLivenessFd + 1);
+  // A process group of its own (its id is the worker's pid): whatever the plugin forks is in it,
+  // and is killed with the worker (PR_SET_PDEATHSIG is not inherited by the plugin's children).
+  posix_spawnattr_t attributes;
+  posix_spawnattr_init(&attributes);
+  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
+  posix_spawnattr_setpgroup(&attributes, 0);
   pid_t pid = 0;
-  const int rc = posix_spawn(&pid, exe.c_str(), &actions, nullptr, argv.data(), environ);
+  const int rc = posix_spawn(&pid, exe.c_str(), &actions, &attributes, argv.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
+  posix_spawnattr_destroy(&attributes);
   close(channel[1]);
+  close(liveness[1]);
   if (rc != 0) {
     close(channel[0]);
+    close(liveness[0]);
     throw std::runtime_error("cannot start the plugin worker '" + exe + "': " + std::strerror(rc));
   }
   const int pidfd = pidfd_open(pid);
   if (pidfd < 0) {
     const int error = errno;
-    ::kill(pid, SIGKILL);
+    ::kill(-pid, SIGKILL);
     waitpid(pid, nullptr, 0);
     close(channel[0]);
+    close(liveness[0]);
     throw std::runtime_error(std::string("pidfd_open: ") + std::strerror(error));
   }
   fcntl(channel[0], F_SETFL, fcntl(channel[0], F_GETFL) | O_NONBLOCK);
+  fcntl(liveness[0], F_SETFL, fcntl(liveness[0], F_GETFL) | O_NONBLOCK);
 
   auto worker = std::make_shared<Worker>();
   worker->pid = pid;
   worker->pidfd = pidfd;
   worker->fd = channel[0];
+  worker->liveness_fd = liveness[0];
   worker->plugin = library->name();
+  // Its first instance is the one it is started for: counted before any other session can see
+  // the worker, so sessions_per_worker holds however many sessions start at once.
+  worker->instances = 1;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     worker->key = next_worker_key_++;
@@ -182,11 +236,14 @@ std::shared_ptr<PluginWorkers::Worker> PluginWorkers::start_worker(const std::sh
   }
   epoll_event event{};
   event.events = EPOLLIN | EPOLLRDHUP;
-  event.data.u64 = worker->key * 2;
+  event.data.u64 = worker->key * kEventKinds + kChannelEvent;
   epoll_ctl(epoll_, EPOLL_CTL_ADD, worker->fd, &event);
   event.events = EPOLLIN;
-  event.data.u64 = worker->key * 2 + 1;
+  event.data.u64 = worker->key * kEventKinds + kExitEvent;
   epoll_ctl(epoll_, EPOLL_CTL_ADD, worker->pidfd, &event);
+  event.events = EPOLLIN;
+  event.data.u64 = worker->key * kEventKinds + kLivenessEvent;
+  epoll_ctl(epoll_, EPOLL_CTL_ADD, worker->liveness_fd, &event);
   logger_.log(LogLevel::kDebug, "server", "started worker pid " + std::to_string(pid) + " for plugin " + worker->plugin);
   return worker;
 }
@@ -229,11 +286,14 @@ uint64_t PluginWorkers::create_instance(const std::shared_ptr<const PluginLibrar
   const size_t capacity = std::max<size_t>(1, settings_.sessions_per_worker_of(library->name()));
   std::shared_ptr<Worker> chosen;
   {
+    // The slot is taken in the same step as it is found (a worker's count never lags behind the
+    // sessions that chose it); a new worker comes with its first slot taken.
     std::lock_guard<std::mutex> lock(mutex_);
     if (stopping_) throw std::runtime_error("the server is shutting down");
     for (const auto& [_, w] : workers_) {
       std::lock_guard<std::mutex> worker_lock(w->mutex);
       if (w->plugin == library->name() && !w->closed && w->instances < capacity) {
+        ++w->instances;
         chosen = w;
         break;
       }
@@ -241,10 +301,12 @@ uint64_t PluginWorkers::create_instance(const std::shared_ptr<const PluginLibrar
   }
   if (!chosen) chosen = start_worker_on_io_thread(library);
   std::lock_guard<std::mutex> lock(mutex_);
+  if (!workers_.count(chosen->key)) {
+    // Reaped meanwhile: its loss was told to the instances it had, which did not include this one.
+    throw std::runtime_error("its worker (pid " + std::to_string(chosen->pid) + ") ended as the session was placed on it");
+  }
   const uint64_t instance = next_instance_++;
   instances_[instance] = {chosen, std::move(owner)};
-  std::lock_guard<std::mutex> worker_lock(chosen->mutex);
-  ++chosen->instances;
   return instance;
 }
 
@@ -278,7 +340,7 @@ bool PluginWorkers::queue_locked(Worker& w, uint64_t instance, worker::Op op, st
   if (w.outbox_sent < w.outbox.size() && !w.writing) {
     epoll_event event{};
     event.events = EPOLLIN | EPOLLRDHUP | EPOLLOUT;
-    event.data.u64 = w.key * 2;
+    event.data.u64 = w.key * kEventKinds + kChannelEvent;
     epoll_ctl(epoll_, EPOLL_CTL_MOD, w.fd, &event);
     w.writing = true;
   }
@@ -339,7 +401,7 @@ void PluginWorkers::flush(const std::shared_ptr<Worker>& w) {
     w->outbox_sent = 0;
     epoll_event event{};
     event.events = EPOLLIN | EPOLLRDHUP;
-    event.data.u64 = w->key * 2;
+    event.data.u64 = w->key * kEventKinds + kChannelEvent;
     epoll_ctl(epoll_, EPOLL_CTL_MOD, w->fd, &event);
     w->writing = false;
   }
@@ -419,14 +481,22 @@ void PluginWorkers::kill(const std::shared_ptr<Worker>& w, const std::string& re
   if (w->kill_reason.empty()) w->kill_reason = reason;
   w->closed = true;
   pidfd_send_signal(w->pidfd, SIGKILL);
+  // Its group too. Safe by pid: the worker is not reaped yet, so its pid (the group's id) is
+  // not free for reuse.
+  ::kill(-w->pid, SIGKILL);
 }
 
 void PluginWorkers::reap(const std::shared_ptr<Worker>& w) {
   siginfo_t info{};
-  if (waitid(static_cast<idtype_t>(P_PIDFD), static_cast<id_t>(w->pidfd), &info, WEXITED | WNOHANG) != 0 ||
+  if (waitid(static_cast<idtype_t>(P_PIDFD), static_cast<id_t>(w->pidfd), &info, WEXITED | WNOHANG | WNOWAIT) != 0 ||
       info.si_pid == 0) {
     return;  // not ended yet
   }
+  // Ended, not reaped yet: what the plugin started goes with it (the group's id stays reserved
+  // until the worker is reaped, below).
+  ::kill(-w->pid, SIGKILL);
+  info = {};
+  waitid(static_cast<idtype_t>(P_PIDFD), static_cast<id_t>(w->pidfd), &info, WEXITED | WNOHANG);
   std::deque<Worker::Request> in_flight;
   std::string kill_reason;
   bool retired = false;
@@ -441,8 +511,10 @@ void PluginWorkers::reap(const std::shared_ptr<Worker>& w) {
   }
   epoll_ctl(epoll_, EPOLL_CTL_DEL, w->fd, nullptr);
   epoll_ctl(epoll_, EPOLL_CTL_DEL, w->pidfd, nullptr);
+  epoll_ctl(epoll_, EPOLL_CTL_DEL, w->liveness_fd, nullptr);
   close(w->fd);
   close(w->pidfd);
+  close(w->liveness_fd);
 
   std::vector<std::pair<uint64_t, std::weak_ptr<InstanceOwner>>> lost;
   bool stopping = false;
@@ -518,6 +590,64 @@ void PluginWorkers::check_deadlines() {
   }
 }
 
+void PluginWorkers::check_liveness() {
+  if (settings_.liveness_timeout_s <= 0.0) return;
+  const auto now = Clock::now();
+  // This thread itself late (locd stopped, or starved): the workers' silence meanwhile says
+  // nothing of them; they are pinged afresh.
+  const bool thread_was_late = last_liveness_check_ != Clock::time_point{} && now - last_liveness_check_ > kPingPeriod;
+  last_liveness_check_ = now;
+  std::vector<std::shared_ptr<Worker>> workers;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [_, w] : workers_) workers.push_back(w);
+  }
+  const auto timeout = std::chrono::duration<double>(settings_.liveness_timeout_s);
+  for (const auto& w : workers) {
+    {
+      std::lock_guard<std::mutex> lock(w->mutex);
+      if (w->closed) continue;
+    }
+    if (!w->pinging) continue;
+    if (thread_was_late) {
+      w->ping_outstanding = false;
+      w->next_ping = now;
+    }
+    if (w->ping_outstanding) {
+      if (now - w->ping_sent < timeout) continue;
+      kill(w, "did not answer its liveness ping within " + seconds(settings_.liveness_timeout_s) +
+                  " (liveness_timeout_s; " + process_state(w->pid) + ")");
+      continue;
+    }
+    if (now < w->next_ping) continue;
+    const char ping = 'p';
+    if (::send(w->liveness_fd, &ping, 1, MSG_NOSIGNAL | MSG_DONTWAIT) == 1) {
+      w->ping_outstanding = true;
+      w->ping_sent = now;
+      w->next_ping = now + kPingPeriod;
+    }
+  }
+}
+
+void PluginWorkers::read_liveness(const std::shared_ptr<Worker>& w) {
+  char answers[64];
+  for (;;) {
+    const ssize_t n = ::recv(w->liveness_fd, answers, sizeof answers, MSG_DONTWAIT);
+    if (n > 0) {
+      if (!w->pinging) {
+        // Its first byte: the ping thread runs (the worker has started); pinging begins.
+        w->pinging = true;
+        w->next_ping = Clock::now() + kPingPeriod;
+      }
+      w->ping_outstanding = false;
+      continue;
+    }
+    if (n < 0 && errno == EINTR) continue;
+    if (n == 0) epoll_ctl(epoll_, EPOLL_CTL_DEL, w->liveness_fd, nullptr);  // ending; the pidfd tells when
+    return;
+  }
+}
+
 void PluginWorkers::run_due_timers() {
   std::vector<std::function<void()>> due;
   {
@@ -563,10 +693,14 @@ void PluginWorkers::run() {
         [[maybe_unused]] const ssize_t r = ::read(wake_, &count, sizeof count);
         continue;
       }
-      auto w = worker_by_key(key / 2);
+      auto w = worker_by_key(key / kEventKinds);
       if (!w) continue;
-      if (key % 2 == 1) {
+      if (key % kEventKinds == kExitEvent) {
         reap(w);
+        continue;
+      }
+      if (key % kEventKinds == kLivenessEvent) {
+        read_liveness(w);
         continue;
       }
       if (events[i].events & EPOLLOUT) flush(w);
@@ -579,6 +713,7 @@ void PluginWorkers::run() {
     if (now - last_check >= std::chrono::milliseconds(kCheckEveryMs)) {
       last_check = now;
       check_deadlines();
+      check_liveness();
       run_due_timers();
     }
   }

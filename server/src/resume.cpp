@@ -35,7 +35,7 @@ Eigen::Isometry3d pose_from_json(const Json& j) {
 
 std::optional<Eigen::Isometry3d> odometry_at(const Odometry& latest, int64_t stamp_ns) {
   const int64_t gap = stamp_ns - latest.header.stamp_ns;
-  if (gap < 0 || gap > kMaxOdometryExtrapolationNs) return std::nullopt;
+  if (gap < -kMaxOdometryExtrapolationNs || gap > kMaxOdometryExtrapolationNs) return std::nullopt;
   const double dt = static_cast<double>(gap) * 1e-9;
   Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
   const Eigen::Vector3d rotation = latest.angular_velocity * dt;
@@ -101,6 +101,7 @@ std::map<std::string, ResumeState> StateFile::load(Logger& logger) const {
       if (!covariance.is_array() || covariance.size() != 36) throw std::runtime_error("covariance needs 36 numbers");
       for (int i = 0; i < 36; ++i) s.estimate.covariance(i / 6, i % 6) = covariance[i].get<double>();
       if (entry.contains("map_from_odom")) s.map_from_odom = pose_from_json(entry["map_from_odom"]);
+      s.claim_strength = entry.value("claim_strength", 0);
       validate(s.estimate);
       states[robot_id] = std::move(s);
     } catch (const std::exception& e) {
@@ -123,6 +124,7 @@ std::string StateFile::encode(const std::map<std::string, ResumeState>& states) 
     for (int i = 0; i < 36; ++i) covariance.push_back(s.estimate.covariance(i / 6, i % 6));
     entry["covariance"] = std::move(covariance);
     if (s.map_from_odom) entry["map_from_odom"] = pose_json(*s.map_from_odom);
+    if (s.claim_strength != 0) entry["claim_strength"] = s.claim_strength;
     robots[robot_id] = std::move(entry);
   }
   const Json root = {{"version", kStateFileVersion}, {"robots", std::move(robots)}};

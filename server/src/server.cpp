@@ -29,6 +29,14 @@ constexpr auto kHeartbeatEvery = std::chrono::milliseconds(100);
 constexpr auto kServerSilence = std::chrono::milliseconds(500);
 // Other servers remembered at most (a flood of made-up server ids takes no more memory).
 constexpr size_t kMaxServers = 1024;
+// After a stall of this server, its outputs wait this long: it hears the other servers' heartbeats
+// (every kHeartbeatEvery) and claims again, and hands back what was taken over meanwhile.
+constexpr auto kRelistenAfterStall = std::chrono::milliseconds(1000);
+
+int64_t steady_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
 
 }  // namespace
 
@@ -74,6 +82,7 @@ Server::Server(ServerConfig config, const PluginCatalog& catalog, OutputSink& si
       fleet_(ServerMember{config_.server_id, config_.weight, config_.server_group}),
       info_(make_info(config_, catalog_, started_ns_)) {
   pool_.on_task_error([this](const std::string& what) { logger_.log(LogLevel::kError, "server", "task failed: " + what); });
+  environment_.outputs_withheld = [this] { return outputs_withheld(); };
   environment_.forget = [this](const std::shared_ptr<Session>& session) {
     bool forgotten = false;
     {
@@ -88,6 +97,7 @@ Server::Server(ServerConfig config, const PluginCatalog& catalog, OutputSink& si
     if (forgotten && observer_) observer_->session_ended(session->robot_id());
   };
   saved_ = state_file_.load(logger_);
+  for (const auto& [robot_id, state] : saved_) strongest_claim_[robot_id] = state.claim_strength;
   if (state_file_.enabled()) {
     logger_.log(LogLevel::kInfo, "server",
                 "state file " + state_file_.file().string() + ": " + std::to_string(saved_.size()) +
@@ -123,6 +133,11 @@ void Server::save_state() {
     auto state = session->resume_state();
     if (!state) continue;
     state->server = config_.server_id;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      const auto strength = strongest_claim_.find(session->robot_id());
+      if (strength != strongest_claim_.end()) state->claim_strength = strength->second;
+    }
     // To the other servers, when it changed: where the robot resumes should this server die.
     auto& shared = shared_[session->robot_id()];
     if (shared != std::make_pair(state->estimate.header.stamp_ns, state->failed)) {
@@ -194,17 +209,31 @@ std::shared_ptr<Session> Server::create_session_locked(const std::string& robot_
       logger_.log(LogLevel::kInfo, robot_id, "taken over: resumes where server '" + peer->second.server + "' left it");
     }
     if (saved != saved_.end()) saved_.erase(saved);
-    fleet_.claim(robot_id, config_.server_id, true, wall_clock_ns());
-    claims_to_publish_.emplace_back(robot_id, true);
+    const auto known = strongest_claim_.find(robot_id);
+    const int32_t strength =
+        claim_strength(config_.server_id, known == strongest_claim_.end() ? 0 : known->second, wall_clock_ns());
+    note_claim_strength_locked(robot_id, strength);
+    fleet_.claim(robot_id, config_.server_id, true, wall_clock_ns(), strength);
+    claims_to_publish_.push_back({robot_id, true, strength});
   }
   return slot;
+}
+
+void Server::note_claim_strength_locked(const std::string& robot_id, int32_t strength) {
+  auto it = strongest_claim_.find(robot_id);
+  if (it == strongest_claim_.end()) {
+    if (strongest_claim_.size() >= kMaxRequestsKept) strongest_claim_.erase(strongest_claim_.begin());
+    strongest_claim_.emplace(robot_id, strength);
+  } else {
+    it->second = std::max(it->second, strength);
+  }
 }
 
 void Server::forget_locked(std::map<std::string, std::shared_ptr<Session>>::iterator it) {
   const std::string robot_id = it->first;
   sessions_.erase(it);
   fleet_.claim(robot_id, config_.server_id, false);
-  claims_to_publish_.emplace_back(robot_id, false);
+  claims_to_publish_.push_back({robot_id, false, 0});
   shared_.erase(robot_id);
 }
 
@@ -276,16 +305,16 @@ void Server::publish_claims() {
   // Serialised, in the order they were made; outside mutex_: a claim written reaches this
   // server's own claim reader on this thread, which takes mutex_.
   std::lock_guard<std::mutex> order(claims_mutex_);
-  std::vector<std::pair<std::string, bool>> claims;
+  std::vector<ClaimChange> claims;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     claims.swap(claims_to_publish_);
   }
-  for (const auto& [robot_id, serving] : claims) {
+  for (const auto& claim : claims) {
     try {
-      sink_.publish_claim(robot_id, serving);
+      sink_.publish_claim(claim.robot_id, claim.serving, claim.strength);
     } catch (const std::exception& e) {
-      logger_.log(LogLevel::kError, robot_id, std::string("claim not published: ") + e.what());
+      logger_.log(LogLevel::kError, claim.robot_id, std::string("claim not published: ") + e.what());
     }
   }
 }
@@ -399,11 +428,13 @@ void Server::forget_server_locked(const std::string& server_id) {
   last_server_gone_ = std::chrono::steady_clock::now();
 }
 
-void Server::on_claim(const std::string& robot_id, const std::string& server_id, bool serving, int64_t since_ns) {
+void Server::on_claim(const std::string& robot_id, const std::string& server_id, bool serving, int64_t since_ns,
+                      int32_t strength) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (server_id == config_.server_id) return;
   if (serving && served_elsewhere_.size() < kMaxRequestsKept) served_elsewhere_.insert(robot_id);
-  fleet_.claim(robot_id, server_id, serving, since_ns);
+  if (serving) note_claim_strength_locked(robot_id, strength);
+  fleet_.claim(robot_id, server_id, serving, since_ns, strength);
   fleet_changed_ = true;
 }
 
@@ -416,10 +447,40 @@ void Server::on_peer_resume_state(const std::string& robot_id, const std::string
   peer_states_[robot_id] = state;
 }
 
+bool Server::outputs_withheld() const {
+  const int64_t now = steady_ns();
+  const int64_t last_tick = last_tick_ns_.load();
+  const bool stalled = others_known_.load() && last_tick != 0 &&
+                       now - last_tick > std::chrono::nanoseconds(kServerSilence).count();
+  if (!stalled && now >= withheld_until_ns_.load()) return false;
+  ++outputs_withheld_count_;
+  return true;
+}
+
 void Server::rebalance() {
   std::vector<std::string> robots;
   std::vector<std::string> silent;  // servers gone quiet
   bool announce = false;
+  bool stalled = false;
+  {
+    const int64_t tick = steady_ns();
+    const int64_t last_tick = last_tick_ns_.exchange(tick);
+    const int64_t stall_ns = last_tick == 0 ? 0 : tick - last_tick;
+    stalled = stall_ns > std::chrono::nanoseconds(kServerSilence).count();
+    if (others_known_.load() && stalled) {
+      withheld_until_ns_ = tick + std::chrono::nanoseconds(kRelistenAfterStall).count();
+      logger_.log(LogLevel::kWarning, "server",
+                  "this server was stalled for " + std::to_string(stall_ns / 1'000'000) +
+                      " ms (its heartbeat could not go out): other servers may have taken its robots over; its "
+                      "outputs are withheld for " + std::to_string(kRelistenAfterStall.count()) +
+                      " ms while it hears the fleet again");
+    } else if (withheld_until_ns_.load() != 0 && tick >= withheld_until_ns_.load()) {
+      withheld_until_ns_ = 0;
+      logger_.log(LogLevel::kInfo, "server",
+                  "outputs published again; " + std::to_string(outputs_withheld_count_.exchange(0)) +
+                      " were withheld after the stall");
+    }
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
     const auto now = std::chrono::steady_clock::now();
@@ -428,6 +489,8 @@ void Server::rebalance() {
       last_announce_ = now;
     }
     for (auto it = server_heard_.begin(); it != server_heard_.end();) {
+      // Not listening while stalled: the others' silence meanwhile says nothing of them.
+      if (stalled) it->second = now;
       if (now - it->second <= kServerSilence) {
         ++it;
         continue;
@@ -436,6 +499,7 @@ void Server::rebalance() {
       forget_server_locked(it->first);
       it = server_heard_.erase(it);
     }
+    others_known_ = !server_heard_.empty();
     if (fleet_changed_ || now - last_rebalance_ >= kRebalanceEvery) {
       fleet_changed_ = false;
       last_rebalance_ = now;

@@ -90,7 +90,7 @@ constexpr long kMaxSessionsPerWorker = 100000;
 
 void parse_plugin_workers(const Params& p, const fs::path& base, ServerConfig& c) {
   p.expect_only({"executable", "sessions_per_worker", "configure_deadline_s", "update_deadline_s", "memory_limit_mb",
-                 "max_failures", "restart_backoff_s", "failure_reset_s", "plugins"});
+                 "liveness_timeout_s", "max_failures", "restart_backoff_s", "failure_reset_s", "plugins"});
   WorkerSettings& w = c.plugin_workers;
   if (p.has("executable")) {
     const fs::path exe(p.text("executable", ""));
@@ -105,6 +105,7 @@ void parse_plugin_workers(const Params& p, const fs::path& base, ServerConfig& c
   if (w.memory_limit_mb > 0 && w.memory_limit_mb < 64) {
     p.fail("memory_limit_mb", "= " + std::to_string(w.memory_limit_mb) + " is too small to load a plugin; allowed: 0 (no limit) or 64..");
   }
+  w.liveness_timeout_s = p.number("liveness_timeout_s", w.liveness_timeout_s, Range::closed(0.0, kMaxDeadlineS));
   FailurePolicy& f = c.failures;
   f.max_failures = static_cast<uint32_t>(p.integer("max_failures", f.max_failures, 1, 1000));
   const auto backoff = p.numbers("restart_backoff_s", {f.backoff_initial_s, f.backoff_max_s}, 2, Range::closed(0.0, 3600.0));

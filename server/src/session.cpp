@@ -189,20 +189,38 @@ void Session::set_pose(const PoseEstimate& pose) {
                     stamp_text(seeded_->estimate.header.stamp_ns) + "); kept the resumed pose";
       out.log.emplace_back(LogLevel::kWarning, last_error_);
       out.status = true;
-    } else if (!plugin_alive_locked()) {
-      // Handed to the plugin when it is installed; the robot's acknowledgement is the status
-      // naming the pose's stamp (DDS orders samples per topic only).
-      resume_ = ResumeState{pose, std::nullopt, current_ ? current_->name : "", request_id_, false};
-      ++counters_.used;
-      initial_pose_stamp_ns_ = pose.header.stamp_ns;
-      out.log.emplace_back(LogLevel::kInfo, "initial pose kept for the plugin still starting");
-      out.status = true;
     } else {
-      control_.push_back({Control::Kind::kInitialPose, pose, 0});
-      pump_locked();
+      take_initial_pose_locked(pose, out);
     }
   }
   finish(out);
+}
+
+void Session::take_initial_pose_locked(const PoseEstimate& pose, Publication& out) {
+  if (seeded_ || resume_from_seed_) {
+    // Newer than the saved state: the robot says where it is now, and that wins.
+    out.log.emplace_back(LogLevel::kInfo, "initial pose stamped " + stamp_text(pose.header.stamp_ns) +
+                                              " is newer than the saved pose: the saved pose is not used");
+    seeded_.reset();
+    resume_from_seed_ = false;
+  }
+  // A resumed pose not yet handed to the plugin is superseded (it would otherwise wait for the
+  // robot's next sensor message, which a robot may hold back until its initial pose is taken).
+  control_.erase(std::remove_if(control_.begin(), control_.end(),
+                                [](const Control& c) { return c.kind == Control::Kind::kResumePose; }),
+                 control_.end());
+  if (!plugin_alive_locked()) {
+    // Handed to the plugin when it is installed; the robot's acknowledgement is the status
+    // naming the pose's stamp (DDS orders samples per topic only).
+    resume_ = ResumeState{pose, std::nullopt, current_ ? current_->name : "", request_id_, false};
+    ++counters_.used;
+    initial_pose_stamp_ns_ = pose.header.stamp_ns;
+    out.log.emplace_back(LogLevel::kInfo, "initial pose kept for the plugin still starting");
+    out.status = true;
+  } else {
+    control_.push_back({Control::Kind::kInitialPose, pose, 0});
+    pump_locked();
+  }
 }
 
 void Session::save_map(uint64_t request_id) {
@@ -227,13 +245,27 @@ void Session::save_map(uint64_t request_id) {
 // ------------------------------------------------------------------------------- requests
 
 uint64_t Session::begin_request(uint64_t request_id) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  // A request (re)starts the stream: a robot that restarted with its clock from zero is served.
-  last_stamp_.fill(std::nullopt);
-  // Another request than the one replayed from before the server restarted: the robot is live
-  // and its initial poses are its own, whatever their stamps.
-  if (seeded_ && seeded_->request_id != request_id) seeded_.reset();
-  return ++latest_generation_;
+  std::string dropped_seed;
+  uint64_t generation = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    // A request (re)starts the stream: a robot that restarted with its clock from zero is served.
+    last_stamp_.fill(std::nullopt);
+    // Another request than the one the saved state belongs to: the robot started again (or asks
+    // anew), so the saved state no longer describes it. Its initial poses are its own, whatever
+    // their stamps, and the plugin starts as the request says, not from the saved pose.
+    if (seeded_ && seeded_->request_id != request_id) {
+      dropped_seed = "the saved pose (request " + std::to_string(seeded_->request_id) +
+                     ") is not used: request " + std::to_string(request_id) +
+                     " is a new one (the robot started again or asked anew)";
+      seeded_.reset();
+      if (resume_from_seed_) resume_.reset();
+      resume_from_seed_ = false;
+    }
+    generation = ++latest_generation_;
+  }
+  if (!dropped_seed.empty()) log(LogLevel::kInfo, dropped_seed);
+  return generation;
 }
 
 void Session::start(uint64_t generation, uint64_t request_id, std::shared_ptr<const PluginLibrary> library,
@@ -316,7 +348,7 @@ void Session::stop(uint64_t request_id, const std::string& message) {
     std::lock_guard<std::mutex> lock(mutex_);
     stopped_ = true;
     ++latest_generation_;  // a plugin still being configured is never installed
-    counters_.dropped += queue_.size();
+    counters_.dropped += held_locked();
     queue_.clear();
     control_.clear();
     in_flight_.reset();
@@ -343,6 +375,7 @@ void Session::seed(const ResumeState& state) {
     failed_request_id_ = state.request_id;
   } else {
     resume_ = state;
+    resume_from_seed_ = true;
   }
 }
 
@@ -404,8 +437,16 @@ void Session::pump_locked() {
   std::string frame;
   worker::Op op = worker::Op::kUpdate;
   if (!control_.empty()) {
-    Control control = std::move(control_.front());
-    control_.pop_front();
+    auto next_control = control_.begin();
+    if (next_control->kind == Control::Kind::kResumePose && queue_.empty()) {
+      // The resumed pose waits for the robot's next message (below); what stands behind it
+      // (a map save) does not wait with it.
+      next_control = std::find_if(control_.begin(), control_.end(),
+                                  [](const Control& c) { return c.kind != Control::Kind::kResumePose; });
+      if (next_control == control_.end()) next_control = control_.begin();
+    }
+    Control control = std::move(*next_control);
+    control_.erase(next_control);
     switch (control.kind) {
       case Control::Kind::kSaveMap:
         op = worker::Op::kSaveMap;
@@ -575,11 +616,13 @@ void Session::handle_update_locked(InFlight& done, worker::Reply& reply, Publica
     ResumeState state{estimate, std::nullopt, done.plugin, current_ ? current_->request_id : request_id_, false};
     if (last_odometry_sent_) state.map_from_odom = map_from_odom(estimate, *last_odometry_sent_);
     resume_ = std::move(state);
+    resume_from_seed_ = false;
   }
   out.outputs = std::move(reply.result);
   out.plugin = done.plugin;
   out.header = map_header(header.stamp_ns);
   out.update_ms = reply.compute_ms;
+  out.of_update = true;
 }
 
 void Session::handle_control_locked(InFlight& done, worker::Reply& reply, Publication& out) {
@@ -591,6 +634,7 @@ void Session::handle_control_locked(InFlight& done, worker::Reply& reply, Public
         ++counters_.used;
         initial_pose_stamp_ns_ = control.pose.header.stamp_ns;
         resume_ = ResumeState{control.pose, std::nullopt, done.plugin, request_id_, false};
+        resume_from_seed_ = false;
         out.log.emplace_back(LogLevel::kInfo, "initial pose set: x " + std::to_string(control.pose.pose.translation().x()) +
                                                   ", y " + std::to_string(control.pose.pose.translation().y()));
       } else {
@@ -704,7 +748,7 @@ void Session::register_failure_locked(const std::string& description, Publicatio
                   " times in a row (max_failures = " + std::to_string(env_.failures.max_failures) +
                   "): stopped; a new session request starts it again";
     message_ = "plugin failed " + std::to_string(failures_in_a_row_) + " times in a row; session stopped";
-    counters_.dropped += queue_.size();
+    counters_.dropped += held_locked();
     queue_.clear();
     control_.clear();
     out.log.emplace_back(LogLevel::kError, last_error_);
@@ -745,6 +789,7 @@ void Session::restart(uint64_t generation) {
 void Session::finish(Publication& out) {
   for (const uint64_t instance : out.release) env_.workers.release(instance);
   for (const auto& [level, line] : out.log) log(level, line);
+  if (out.outputs && out.of_update && env_.outputs_withheld && env_.outputs_withheld()) out.outputs.reset();
   if (out.outputs) {
     try {
       env_.sink.publish_outputs(robot_id_, out.plugin, out.header, *out.outputs, out.update_ms);
@@ -770,10 +815,38 @@ SessionStatusReport Session::status() const {
   s.message = message_;
   s.last_error = last_error_;
   s.counters = counters_;
+  s.counters.held = held_locked();
+  s.waiting_for = waiting_for_locked();
   s.initial_pose_stamp_ns = initial_pose_stamp_ns_;
   s.failures = failures_;
   s.localization = localization_;
   return s;
+}
+
+size_t Session::held_locked() const {
+  size_t held = queue_.size();
+  for (const Control& c : control_) held += c.kind == Control::Kind::kInitialPose;
+  if (in_flight_ && (in_flight_->measurement ||
+                     (in_flight_->control && in_flight_->control->kind == Control::Kind::kInitialPose))) {
+    ++held;
+  }
+  return held;
+}
+
+std::string Session::waiting_for_locked() const {
+  const bool map_save_held = std::any_of(control_.begin(), control_.end(),
+                                         [](const Control& c) { return c.kind == Control::Kind::kSaveMap; });
+  if (held_locked() == 0 && !map_save_held) return "";
+  const std::string plugin = current_ ? current_->name : pending_ ? pending_->plugin.name : "";
+  if (in_flight_) return "plugin '" + in_flight_->plugin + "' to answer the " + in_flight_->what;
+  if (stopped_) return "nothing: the session has ended";
+  if (pending_ && !plugin_alive_locked()) return "plugin '" + plugin + "' to be configured";
+  if (state_ == SessionState::kRestarting) return "plugin '" + plugin + "' to restart after its failure";
+  if (!plugin_alive_locked()) return "a plugin: none runs (send a session request)";
+  if (!control_.empty() && control_.front().kind == Control::Kind::kResumePose && queue_.empty()) {
+    return "the robot's next sensor message, to place the resumed pose where the robot is then";
+  }
+  return "its turn with plugin '" + plugin + "'";
 }
 
 void Session::publish_status() const {

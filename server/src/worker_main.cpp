@@ -2,10 +2,14 @@
 // plugin that crashes, exits, hangs or exhausts its memory costs only the sessions in this
 // process (locd restarts them from their last pose). Started by locd only:
 //
-//   locd-worker --plugin FILE --channel-fd 3 --parent PID --memory-limit-mb N --limits B,P,I,D,PA,M
+//   locd-worker --plugin FILE --channel-fd 3 --liveness-fd 4 --parent PID --memory-limit-mb N
+//               --limits B,P,I,D,PA,M
 //
 // It reads requests from the channel (worker_protocol.hpp), one at a time, and answers each
-// before reading the next. It ends when locd closes the channel, and with locd.
+// before reading the next; a thread of its own answers locd's liveness pings. It runs in a
+// process group of its own (locd starts it so), and ends when locd closes the channel, and
+// with locd: then everything in its group (what the plugin forked) is killed too.
+#include <pthread.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
@@ -14,6 +18,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -32,6 +37,7 @@ using namespace locd::server::worker;
 struct Arguments {
   std::string plugin_file;
   int channel = -1;
+  int liveness = -1;
   pid_t parent = 0;
   long memory_limit_mb = 0;
   Limits limits;
@@ -76,6 +82,7 @@ Arguments parse_arguments(int argc, char** argv) {
     const std::string flag = argv[i], value = argv[i + 1];
     if (flag == "--plugin") a.plugin_file = value;
     else if (flag == "--channel-fd") a.channel = static_cast<int>(parse_size(value, "channel fd"));
+    else if (flag == "--liveness-fd") a.liveness = static_cast<int>(parse_size(value, "liveness fd"));
     else if (flag == "--parent") a.parent = static_cast<pid_t>(parse_size(value, "parent pid"));
     else if (flag == "--memory-limit-mb") a.memory_limit_mb = static_cast<long>(parse_size(value, "memory limit"));
     else if (flag == "--limits") a.limits = parse_limits(value);
@@ -87,10 +94,26 @@ Arguments parse_arguments(int argc, char** argv) {
   return a;
 }
 
-// The process's own limits: it dies with locd, it is the kernel's first choice when memory runs
-// out, it writes no core files, and its address space is bounded.
+// Sent by the kernel when locd dies (PR_SET_PDEATHSIG). Caught, unlike SIGKILL, so that the
+// whole process group goes, this worker with it: the plugin's children do not inherit the
+// parent-death signal.
+const int kParentDeathSignal = SIGRTMIN;
+
+void on_parent_death(int) {
+  ::kill(0, SIGKILL);
+  _exit(kExitChannelLost);
+}
+
+// The process's own limits: it dies with locd (its process group with it), it is the kernel's
+// first choice when memory runs out, it writes no core files, and its address space is bounded.
 void confine(const Arguments& a) {
-  prctl(PR_SET_PDEATHSIG, SIGKILL);
+  // kill(0) must reach this worker's own group only, never locd's.
+  if (getpgrp() != getpid()) die(kExitCannotStart, "not the leader of a process group of its own (locd starts it so)");
+  struct sigaction death {};
+  death.sa_handler = on_parent_death;
+  sigemptyset(&death.sa_mask);
+  sigaction(kParentDeathSignal, &death, nullptr);
+  prctl(PR_SET_PDEATHSIG, kParentDeathSignal);
   if (getppid() != a.parent) _exit(0);  // locd died before the line above took effect
   std::ofstream("/proc/self/oom_score_adj") << "1000\n";
   const rlimit no_core{0, 0};
@@ -101,6 +124,44 @@ void confine(const Arguments& a) {
     if (setrlimit(RLIMIT_AS, &address_space) != 0) die(kExitCannotStart, std::string("setrlimit: ") + std::strerror(errno));
   }
   signal(SIGPIPE, SIG_IGN);
+}
+
+// Answers locd's liveness pings (a byte each) from a thread of its own, so a plugin busy with a
+// long request still answers, and a stopped or frozen process does not. It announces itself with
+// one byte; it ends when locd closes the socket. No allocation here (a thread's first malloc
+// reserves an arena of 64 MB of address space, counted against memory_limit_mb).
+void* answer_pings(void* socket) {
+  const int fd = static_cast<int>(reinterpret_cast<intptr_t>(socket));
+  char bytes[64] = {'h'};
+  ssize_t n = 1;
+  for (;;) {
+    for (ssize_t sent = 0; sent < n;) {
+      const ssize_t w = ::write(fd, bytes + sent, static_cast<size_t>(n - sent));
+      if (w > 0) sent += w;
+      else if (errno != EINTR) return nullptr;
+    }
+    do {
+      n = ::read(fd, bytes, sizeof bytes);
+    } while (n < 0 && errno == EINTR);
+    if (n <= 0) return nullptr;
+  }
+}
+
+void start_answering_pings(int fd) {
+  if (fd < 0) return;
+  pthread_attr_t attributes;
+  pthread_attr_init(&attributes);
+  pthread_attr_setstacksize(&attributes, 64 * 1024);
+  pthread_attr_setdetachstate(&attributes, PTHREAD_CREATE_DETACHED);
+  // Signals are for the main thread (the parent-death signal included).
+  sigset_t all, previous;
+  sigfillset(&all);
+  pthread_sigmask(SIG_SETMASK, &all, &previous);
+  pthread_t thread;
+  const int rc = pthread_create(&thread, &attributes, answer_pings, reinterpret_cast<void*>(static_cast<intptr_t>(fd)));
+  pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+  pthread_attr_destroy(&attributes);
+  if (rc != 0) die(kExitCannotStart, std::string("cannot start the liveness thread: ") + std::strerror(rc));
 }
 
 class Channel {
@@ -280,6 +341,7 @@ class Worker {
 int main(int argc, char** argv) {
   Arguments arguments = parse_arguments(argc, argv);
   confine(arguments);
+  start_answering_pings(arguments.liveness);
   std::shared_ptr<PluginLibrary> library;
   try {
     library = PluginLibrary::open(arguments.plugin_file);

@@ -6,7 +6,8 @@
 // Built a second time with LOCD_FAULTY as the plugin `faulty`: the same localizer that misbehaves
 // on request, for the fault-isolation tests. Its extra parameters:
 //   fault: none | segfault | abort | exit | hang | allocate | stack_overflow | garbage | throw |
-//          nan_pose | bad_covariance
+//          nan_pose | bad_covariance | fork_busy_child (once: forks a child that spins for ever,
+//          logs its pid, and carries on well)
 //   fault_in: update | configure | set_pose    (where the fault strikes; default update)
 //   after_updates: N                           (odometry updates that go well first; default 0)
 //   work_ms: T                                 (each update takes at least T ms; default 0)
@@ -17,6 +18,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <stdexcept>
@@ -57,12 +59,13 @@ void allocate_without_end() {
 
 class OdometryFixture : public locd::Localizer {
  public:
-  void configure(const locd::PluginContext&, const locd::Params& params) override {
+  void configure([[maybe_unused]] const locd::PluginContext& context, const locd::Params& params) override {
 #ifdef LOCD_FAULTY
     params.expect_only({"position_stddev", "fault", "fault_in", "after_updates", "work_ms"});
     fault_ = params.text("fault", "none",
                          {"none", "segfault", "abort", "exit", "hang", "allocate", "stack_overflow", "garbage", "throw",
-                          "nan_pose", "bad_covariance"});
+                          "nan_pose", "bad_covariance", "fork_busy_child"});
+    log_ = context.log;
     fault_in_ = params.text("fault_in", "update", {"update", "configure", "set_pose"});
     after_updates_ = params.integer("after_updates", 0, 0, 1'000'000'000);
     work_ms_ = params.number("work_ms", 0.0, locd::Range::closed(0.0, 60'000.0));
@@ -128,6 +131,16 @@ class OdometryFixture : public locd::Localizer {
     if (fault_ == "allocate") allocate_without_end();
     if (fault_ == "stack_overflow") recurse(0);
     if (fault_ == "throw") throw std::runtime_error("faulty: thrown on purpose");
+    if (fault_ == "fork_busy_child" && !forked_) {
+      forked_ = true;
+      const pid_t child = ::fork();
+      if (child == 0) {
+        for (volatile bool forever = true; forever;) {
+        }
+        ::_exit(0);
+      }
+      log_(locd::LogLevel::kWarning, "faulty: forked a busy child, pid " + std::to_string(child));
+    }
     if (fault_ == "garbage") {
       const char junk[] = "this is not a frame of the worker protocol, just bytes a plugin wrote";
       [[maybe_unused]] const ssize_t n = ::write(kWorkerChannelFd, junk, sizeof junk);
@@ -139,6 +152,8 @@ class OdometryFixture : public locd::Localizer {
   long after_updates_ = 0;
   long updates_ = 0;
   double work_ms_ = 0.0;
+  bool forked_ = false;
+  std::function<void(locd::LogLevel, const std::string&)> log_;
 #endif
   double position_stddev_ = 0.1;
   Eigen::Isometry3d map_from_base_ = Eigen::Isometry3d::Identity();

@@ -315,8 +315,9 @@ TEST(ClientLibrary, PosesReachCallbacksFilteredByRobot) {
   dds::write(poses, "robot_b", estimate, "ceiling_pf", 1.5);
   ASSERT_TRUE(eventually([&] { std::lock_guard<std::mutex> l(mutex); return every_robot.size() == 2; }));
 
-  // A pose with NaN is dropped by the client; the next good one still arrives.
-  auto broken = dds::Writer<locd_msg_PoseEstimate>(server, topics::kPose, dds::QosProfile::kPose, 8, both);
+  // A pose with NaN is dropped by the client; the next good one still arrives. (A stronger writer:
+  // poses are exclusively owned, and DDS takes a robot's poses from the strongest writer only.)
+  auto broken = dds::Writer<locd_msg_PoseEstimate>(server, topics::kPose, dds::QosProfile::kPose, 8, both, 1);
   ASSERT_TRUE(eventually([&] { return broken.matched() > 0; }));
   locd_msg_PoseEstimate nan_pose{};
   dds::copy_string(nan_pose.robot_id, "robot_a");
@@ -324,7 +325,7 @@ TEST(ClientLibrary, PosesReachCallbacksFilteredByRobot) {
   nan_pose.pose.orientation.w = 1.0;
   broken.write(nan_pose);
   estimate.header.stamp_ns = 3'000;
-  dds::write(poses, "robot_a", estimate, "feature_ekf", 0.25);
+  dds::write(broken, "robot_a", estimate, "feature_ekf", 0.25);
   ASSERT_TRUE(eventually([&] { std::lock_guard<std::mutex> l(mutex); return every_robot.size() == 3; }));
   std::this_thread::sleep_for(100ms);
 

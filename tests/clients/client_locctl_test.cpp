@@ -28,6 +28,15 @@ namespace {
 using namespace std::chrono_literals;
 namespace fs = std::filesystem;
 
+// True when process `pid` has a handler for `signal` (its SigCgt mask in /proc).
+bool catches(pid_t pid, int signal) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("SigCgt:", 0) == 0) return (std::stoull(line.substr(7), nullptr, 16) >> (signal - 1)) & 1u;
+  }
+  return false;
+}
+
 constexpr uint32_t kDomainSessions = 44;
 constexpr uint32_t kDomainWatch = 45;
 constexpr uint32_t kDomainNoServer = 48;
@@ -207,9 +216,13 @@ TEST(Locctl, NoServerFailsNamingTheDomainAndCycloneddsUri) {
   EXPECT_EQ(watch.exit_code, 1);
   EXPECT_TRUE(contains(watch.output, "no pose for robot 'robot1' within 0.5 s")) << watch.output;
 
-  // Without --count or --timeout, watch runs until Ctrl-C and then ends normally.
+  // Without --count or --timeout, watch runs until Ctrl-C and then ends normally. Ctrl-C once its
+  // handler is in place (a slow start must not meet the default action instead).
   test::ChildProcess endless(locctl_path(), {"--domain", domain, "watch", "robot1"}, (dir.path() / "endless.log").string());
-  std::this_thread::sleep_for(300ms);
+  const auto deadline = std::chrono::steady_clock::now() + 30s;
+  while (!catches(endless.pid(), SIGINT) && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(10ms);
+  }
   endless.signal(SIGINT);
   EXPECT_EQ(endless.wait(10s), 0) << endless.output();
 }

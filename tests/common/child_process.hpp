@@ -62,6 +62,7 @@ class ChildProcess {
   ChildProcess& operator=(const ChildProcess&) = delete;
 
   void signal(int sig) const { ::kill(pid_, sig); }
+  pid_t pid() const { return pid_; }
 
   // Waits for the exit; returns the exit code, or -1 on timeout (the child is then killed),
   // or 128 + signal when a signal ended it.

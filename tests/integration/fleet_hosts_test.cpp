@@ -1,10 +1,11 @@
-// Many servers, one fleet, over real DDS between hosts (domains 150, 151): four network namespaces
-// joined by veth pairs and a bridge (tests/common/hosts.sh, made and removed here; root): three
-// locd servers, and 30 robots of `locsim fleet` on the fourth host. Every robot is served by
-// exactly one server, the robots spread over the three, and when one server is killed (kill -9),
-// or its cable is cut and comes back 5 s later, the other two take its robots over from where
-// they were: no robot ends without poses, none got poses twice, none is left on (or goes back
-// to) server2.
+// Many servers, one fleet, over real DDS between hosts (domains 150, 151, 229): four network
+// namespaces joined by veth pairs and a bridge (tests/common/hosts.sh, made and removed here;
+// root): three locd servers, and 30 robots of `locsim fleet` on the fourth host. Every robot is
+// served by exactly one server, the robots spread over the three, and when one server is killed
+// (kill -9), or its cable is cut and comes back 5 s later, or it is stopped for 3 s (SIGSTOP) and
+// resumes, the other two take its robots over from where they were: no robot ends without poses,
+// no robot got two poses for one stamp (counted: zero), none is left on (or goes back to)
+// server2.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -25,7 +26,7 @@ namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 using locd::test::ChildProcess;
 
-enum class Fault { kKill, kCutAndHeal };
+enum class Fault { kKill, kCutAndHeal, kStall };
 constexpr int kServers = 3;
 constexpr int kRobots = 30;
 
@@ -73,7 +74,7 @@ class FleetHosts : public ::testing::TestWithParam<Fault> {
 };
 
 TEST_P(FleetHosts, EachRobotHasOneServerAndAFailedServersRobotsAreTakenOver) {
-  const int kDomain = GetParam() == Fault::kKill ? 150 : 151;
+  const int kDomain = GetParam() == Fault::kKill ? 150 : GetParam() == Fault::kCutAndHeal ? 151 : 229;
   if (::geteuid() != 0) GTEST_SKIP() << "needs root to make network namespaces (CI runs as root)";
   const fs::path dir = fs::temp_directory_path() / ("locd_fleet_hosts_" + std::to_string(::getpid()));
   fs::create_directories(dir);
@@ -111,7 +112,7 @@ TEST_P(FleetHosts, EachRobotHasOneServerAndAFailedServersRobotsAreTakenOver) {
   const fs::path fleet_out = dir / "fleet.json";
   auto fleet = hosts.start(0, bin + "locsim",
                            {"fleet", locd::test::source_dir() + "/config/scenarios/corridor_fleet.yaml", "--robots",
-                            std::to_string(kRobots), "--duration", GetParam() == Fault::kKill ? "14" : "20", "--domain", std::to_string(kDomain), "--json"},
+                            std::to_string(kRobots), "--duration", GetParam() == Fault::kCutAndHeal ? "20" : "14", "--domain", std::to_string(kDomain), "--json"},
                            fleet_out);
   // Running: the fleet prints its line; then who serves whom, as an operator sees it.
   while (text_of(fleet_out).find("robots running") == std::string::npos) {
@@ -134,19 +135,26 @@ TEST_P(FleetHosts, EachRobotHasOneServerAndAFailedServersRobotsAreTakenOver) {
   if (GetParam() == Fault::kKill) {
     servers[1]->signal(SIGKILL);
     servers[1]->wait(10s);
-  } else {
+  } else if (GetParam() == Fault::kCutAndHeal) {
     // server2's cable is cut, and comes back: it must take no robot (it hears none while cut,
     // and sees the other servers again before it could), and give back the ones it served.
     ASSERT_EQ(cut(hosts, 2, false), 0);
     std::this_thread::sleep_for(5s);
     ASSERT_EQ(cut(hosts, 2, true), 0);
+  } else {
+    // server2 stalls: the others take its robots over; resumed, it still holds the stall's
+    // messages, and must neither reach the robots with them nor keep the robots.
+    servers[1]->signal(SIGSTOP);
+    std::this_thread::sleep_for(3s);
+    servers[1]->signal(SIGCONT);
   }
   ASSERT_EQ(fleet->wait(90s), 0) << text_of(fleet_out);
   const std::string out = text_of(fleet_out);
   const auto result = nlohmann::json::parse(out.substr(out.find('{')));
   EXPECT_EQ(result["sessions_running"], kRobots) << result.dump(2);
   EXPECT_EQ(result["robots_silent_at_end"], 0) << result.dump(2);
-  // Exactly one server at a time: no pose came twice.
+  // Exactly one server at a time: no robot got two poses for one stamp.
+  EXPECT_EQ(result["poses_duplicated"], 0) << result.dump(2);
   EXPECT_LE(result["poses_received"].get<size_t>(), result["poses_expected"].get<size_t>()) << result.dump(2);
   EXPECT_FALSE(result["robots_by_server"].contains("server2")) << result.dump(2);
   std::cout << "fleet: " << result.dump() << "\n";
@@ -159,7 +167,9 @@ TEST_P(FleetHosts, EachRobotHasOneServerAndAFailedServersRobotsAreTakenOver) {
   if (!::testing::Test::HasFailure()) fs::remove_all(dir);
 }
 
-INSTANTIATE_TEST_SUITE_P(Faults, FleetHosts, ::testing::Values(Fault::kKill, Fault::kCutAndHeal),
-                         [](const auto& info) { return info.param == Fault::kKill ? "kill" : "cut_and_heal"; });
+INSTANTIATE_TEST_SUITE_P(Faults, FleetHosts, ::testing::Values(Fault::kKill, Fault::kCutAndHeal, Fault::kStall),
+                         [](const auto& info) {
+                           return info.param == Fault::kKill ? "kill" : info.param == Fault::kCutAndHeal ? "cut_and_heal" : "stall";
+                         });
 
 }  // namespace

@@ -86,8 +86,10 @@ class FastDds {
     q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_RESERVE_MEMORY_MODE;
     return publisher->create_datawriter(topic_of<PubSubType>(topic), q);
   }
+  // `exclusive`: exclusive ownership, as locd's per-robot outputs (pose, maps, diagnostics) need.
   template <typename PubSubType>
-  fdds::DataReader* reader(const std::string& topic, const std::string& partition, bool transient_local, int depth) {
+  fdds::DataReader* reader(const std::string& topic, const std::string& partition, bool transient_local, int depth,
+                           bool exclusive = false) {
     fdds::SubscriberQos sq;
     if (!partition.empty()) sq.partition().push_back(partition.c_str());
     fdds::Subscriber* subscriber = participant_->create_subscriber(sq);
@@ -96,6 +98,7 @@ class FastDds {
     q.durability().kind = transient_local ? fdds::TRANSIENT_LOCAL_DURABILITY_QOS : fdds::VOLATILE_DURABILITY_QOS;
     q.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
     q.history().depth = depth;
+    if (exclusive) q.ownership().kind = fdds::EXCLUSIVE_OWNERSHIP_QOS;
     q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_RESERVE_MEMORY_MODE;
     return subscriber->create_datareader(topic_of<PubSubType>(topic), q);
   }
@@ -201,7 +204,7 @@ TEST(FastDds, RequestsASessionDrivesARobotAndReadsPoseStatusAndServerInfo) {
   auto* odometry = dds.writer<wire::OdometryPubSubType>("locd/odometry", partition, true, false, 8);
   auto* scans = dds.writer<wire::LaserScanPubSubType>("locd/scan", partition, true, false, 8);
   auto* statuses = dds.reader<wire::SessionStatusPubSubType>("locd/session_status", partition, true, 8);
-  auto* poses = dds.reader<wire::PoseEstimatePubSubType>("locd/pose", partition, false, 1000);
+  auto* poses = dds.reader<wire::PoseEstimatePubSubType>("locd/pose", partition, false, 1000, true);
   ASSERT_TRUE(info && requests && initial_poses && odometry && scans && statuses && poses);
 
   // Server info, in the default partition.

@@ -1,15 +1,19 @@
 // Which server serves which robot (fleet.hpp): weighted rendezvous order against its definition,
 // the spread over servers in proportion to their weights, groups, a dead server's robots moving
-// and only those, no robot moving to a server that comes back, and a double claim settled by rank.
+// and only those, no robot moving to a server that comes back, a double claim settled for the
+// stronger claim (then by rank), and claim strengths that outrank what came before.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <map>
+#include <set>
 
 #include "locd/server/fleet.hpp"
 
 namespace {
 
+using locd::server::claim_strength;
 using locd::server::FleetView;
 using locd::server::rendezvous_order;
 using locd::server::ServerMember;
@@ -107,6 +111,42 @@ TEST(FleetView, ADoubleClaimAtTheSameInstantIsSettledByRank) {
     EXPECT_EQ(a.decide(r, "", true), a_first ? Decision::kServe : Decision::kYield) << r;
     EXPECT_EQ(b.decide(r, "", true), a_first ? Decision::kYield : Decision::kServe) << r;
   }
+}
+
+TEST(FleetView, TheStrongerClaimWinsWhateverItsTime) {
+  // A stronger claim made earlier by the wall clock (another host's clock runs behind) still
+  // wins: the robot's readers take the stronger writer's outputs, so the weaker claim stops.
+  FleetView a({"a", 1.0, ""}), b({"b", 1.0, ""});
+  a.server_alive({"b", 1.0, ""});
+  b.server_alive({"a", 1.0, ""});
+  for (int i = 0; i < 50; ++i) {
+    const std::string r = robot(i);
+    for (FleetView* view : {&a, &b}) {
+      view->claim(r, "a", true, 9000, 100);
+      view->claim(r, "b", true, 1000, 200);
+    }
+    EXPECT_EQ(a.decide(r, "", true), Decision::kYield) << r;
+    EXPECT_EQ(b.decide(r, "", true), Decision::kServe) << r;
+  }
+}
+
+TEST(ClaimStrength, ANewClaimOutranksEveryKnownOneAndTheClock) {
+  const int64_t minute_ns = 60'000'000'000;
+  const int64_t now_ns = (int64_t{1735689600} + 400 * 24 * 3600) * 1'000'000'000;  // 400 days after 2025-01-01
+  const int32_t first = claim_strength("server1", 0, now_ns);
+  EXPECT_EQ(first >> 8, 400 * 24 * 60);  // the term is the minutes since 2025-01-01
+  // Above a known claim of any server, also one made in this minute or later by a faster clock.
+  EXPECT_GT(claim_strength("server2", first, now_ns), first);
+  const int32_t ahead = claim_strength("server3", 0, now_ns + 90 * minute_ns);
+  EXPECT_GT(claim_strength("server1", ahead, now_ns), ahead);
+  // A later minute outranks without knowing (a server restarted without its state file).
+  EXPECT_GT(claim_strength("server1", 0, now_ns + minute_ns), first);
+  // Two servers in one minute without knowing of each other: different strengths (their slots).
+  std::set<int32_t> slots;
+  for (int s = 0; s < 20; ++s) slots.insert(claim_strength("server" + std::to_string(s), 0, now_ns) & 0xff);
+  EXPECT_GE(slots.size(), 18u);
+  // Bounded: never negative, whatever is known.
+  EXPECT_GT(claim_strength("server1", std::numeric_limits<int32_t>::max(), now_ns), 0);
 }
 
 TEST(FleetView, AnUnservedRobotIsTakenByTheFirstServerOnly) {

@@ -33,9 +33,13 @@ TEST(Resume, OdometryIsCarriedOnByItsVelocity) {
   const auto turned = odometry_at(odometry(0, 0, 0, 0.1, 0.0, 0.5), 400'000'000);
   ASSERT_TRUE(turned);
   EXPECT_NEAR(Eigen::AngleAxisd(turned->linear()).angle(), 0.3, 1e-12);
-  // Not backwards in time, not across a gap longer than a second.
-  EXPECT_FALSE(odometry_at(o, 999'999'999));
+  // Backwards too (a scan stamped a little before the newest odometry): 0.1 s before, 0.1 m back.
+  const auto before = odometry_at(o, 900'000'000);
+  ASSERT_TRUE(before);
+  EXPECT_NEAR(before->translation().y(), 1.9, 1e-12);
+  // Not across a gap longer than a second, either way.
   EXPECT_FALSE(odometry_at(o, 1'000'000'000 + kMaxOdometryExtrapolationNs + 1));
+  EXPECT_FALSE(odometry_at(o, 1'000'000'000 - kMaxOdometryExtrapolationNs - 1));
 }
 
 TEST(Resume, ThePoseFollowsTheOdometryOverTheGap) {
@@ -79,6 +83,7 @@ TEST_F(StateFileTest, StatesRoundTrip) {
   a.estimate.covariance = Matrix6d::Identity() * 0.02;
   a.estimate.covariance(0, 1) = a.estimate.covariance(1, 0) = 0.005;
   a.map_from_odom = Eigen::Isometry3d(Eigen::Translation3d(0.1, 0.2, 0.0));
+  a.claim_strength = 123456789;
   ResumeState b;
   b.plugin = "faulty";
   b.request_id = 3;
@@ -94,8 +99,10 @@ TEST_F(StateFileTest, StatesRoundTrip) {
   EXPECT_TRUE(la.estimate.covariance.isApprox(a.estimate.covariance, 1e-15));
   ASSERT_TRUE(la.map_from_odom);
   EXPECT_TRUE(la.map_from_odom->isApprox(*a.map_from_odom, 1e-12));
+  EXPECT_EQ(la.claim_strength, 123456789);
   EXPECT_TRUE(loaded.at("robot.b").failed);
   EXPECT_FALSE(loaded.at("robot.b").map_from_odom);
+  EXPECT_EQ(loaded.at("robot.b").claim_strength, 0);
 }
 
 TEST_F(StateFileTest, AMissingOrMalformedFileIsEmptyAndBadEntriesAreSkipped) {

@@ -90,6 +90,11 @@ TEST(ServerConfig, EachBadValueNamesKeyAndAllowedRange) {
   expect_error("limits: {max_detections: 5000}", {"'limits.max_detections'", "allowed: [1, 4096]"});
   expect_error("plugin_directories: build/plugins", {"'plugin_directories'", "is not a list"});
   expect_error("server_id: ''", {"'server_id'", "1 to 64 characters"});
+  expect_error("plugin_workers: {liveness_timeout_s: -1}", {"'plugin_workers.liveness_timeout_s'", "allowed: [0, 86400]"});
+  EXPECT_DOUBLE_EQ(ServerConfig::parse("", "t.yaml", kBase).plugin_workers.liveness_timeout_s, 0.7);
+  EXPECT_DOUBLE_EQ(
+      ServerConfig::parse("plugin_workers: {liveness_timeout_s: 2}", "t.yaml", kBase).plugin_workers.liveness_timeout_s,
+      2.0);
 }
 
 TEST(ServerConfig, UnknownKeysNameTheKeyWhereItStandsAndTheKnownOnes) {

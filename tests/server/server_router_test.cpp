@@ -1,7 +1,11 @@
 // The session router without DDS: requests through the real loader and the fixture plugins,
 // bad requests answered on the status, messages for robots without a session, a plugin
-// switch at run time and a failed switch that keeps the running plugin.
+// switch at run time and a failed switch that keeps the running plugin, and a stalled server's
+// outputs withheld until it has heard the fleet again.
 #include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
 
 #include "locd/server/server.hpp"
 #include "recording_sink.hpp"
@@ -168,6 +172,33 @@ TEST_F(ServerRouterTest, StopEndsTheSession) {
   server_->on_session_request({"r5", 2, true, "", ""});
   ASSERT_TRUE(sink_.wait_status("r5", [](const auto& s) { return s.state == SessionState::kStopped; }));
   EXPECT_EQ(server_->find("r5"), nullptr);
+}
+
+}  // namespace
+
+namespace {
+
+// A server's loop (rebalance, which writes its heartbeat) stalled for longer than the fleet's
+// silence limit while another server knew it: the other may have taken its robots over, so every
+// output waits until it has heard the fleet again; a lone server has no one to hear.
+TEST_F(ServerRouterTest, AServerStalledAmongOthersWithholdsItsOutputsUntilItHasHeardThemAgain) {
+  server_->rebalance();
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));  // a stall, alone
+  EXPECT_FALSE(server_->outputs_withheld()) << "a lone server withheld its outputs";
+  server_->on_server_alive({"other", 1.0, ""});
+  server_->rebalance();
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));  // a stall, with another server
+  EXPECT_TRUE(server_->outputs_withheld());
+  server_->rebalance();  // the loop runs again: it withholds until it has heard the fleet again
+  EXPECT_TRUE(server_->outputs_withheld());
+  const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(1500);
+  while (std::chrono::steady_clock::now() < until) {
+    server_->on_server_alive({"other", 1.0, ""});
+    server_->rebalance();
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  server_->rebalance();
+  EXPECT_FALSE(server_->outputs_withheld());
 }
 
 }  // namespace

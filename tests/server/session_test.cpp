@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <set>
 #include <signal.h>
 #include <thread>
 
@@ -329,6 +330,116 @@ TEST_F(SessionTest, ANewRequestAcceptsARestartedRobotsClock) {
   ASSERT_TRUE(wait_counted(*session, 2));
   EXPECT_EQ(session->status().counters.rejected, 0u);
   EXPECT_EQ(session->status().counters.used, 2u);
+}
+
+// The server's state file seeds the session (a server restart); the robot, alive, sends a newer
+// initial pose before any sensor message (as locsim live does: it waits for the pose to be taken
+// first). The pose is taken at once: the resumed pose, which waits for the robot's next message,
+// does not hold it back.
+TEST_F(SessionTest, ANewerInitialPoseWinsOverTheSavedStateAndIsTakenAtOnce) {
+  auto session = make(16);
+  ResumeState saved{pose_at(50.0, 50.0, 1000), std::nullopt, "fixture_odometry", 1, false, "", 0};
+  session->seed(saved);
+  install(*session, kFixture, 1);  // the same request: the robot's own, replayed
+  session->set_pose(pose_at(7.0, -1.0, 2000));
+  ASSERT_TRUE(sink_.wait_status("robot", [](const auto& s) { return s.initial_pose_stamp_ns == 2000; }))
+      << "the initial pose was not taken before any sensor message";
+  session->push(odometry(3000));
+  ASSERT_TRUE(wait_estimates(1));
+  EXPECT_NEAR(estimates().back().pose.translation().x(), 7.0, 1e-9);
+  const auto status = session->status();
+  EXPECT_EQ(status.counters.rejected, 0u);
+  EXPECT_EQ(status.counters.received, status.counters.used + status.counters.held);
+}
+
+// A replayed initial pose older than the saved state is refused as stale; the session resumes
+// from the saved pose at the robot's next message, and says so while it waits for it.
+TEST_F(SessionTest, AnOlderInitialPoseIsRefusedAndTheResumedPoseWaitsNamedOnTheStatus) {
+  auto session = make(16);
+  ResumeState saved{pose_at(50.0, 50.0, 1000), std::nullopt, "fixture_odometry", 1, false, "", 0};
+  session->seed(saved);
+  install(*session, kFixture, 1);
+  session->set_pose(pose_at(7.0, -1.0, 500));
+  ASSERT_TRUE(sink_.wait_status("robot", [](const auto& s) { return s.counters.rejected == 1; }));
+  EXPECT_NE(session->status().last_error.find("older than the pose resumed"), std::string::npos);
+  session->save_map(9);  // a control message behind the waiting resumed pose is not held with it
+  ASSERT_TRUE(sink_.wait_status("robot", [](const auto& s) { return s.request_id == 9; }));
+  session->push(odometry(3000));
+  ASSERT_TRUE(wait_estimates(1));
+  EXPECT_NEAR(estimates().back().pose.translation().x(), 50.0, 1e-9);
+}
+
+// A robot that started again sends a new request: the saved state belongs to the old one, so the
+// plugin starts as the new request says (here: from its own origin), and any initial pose the
+// robot sends is its own, whatever its stamp.
+TEST_F(SessionTest, ANewRequestFromARobotThatStartedAgainDropsTheSavedState) {
+  auto session = make(16);
+  ResumeState saved{pose_at(50.0, 50.0, 5'000'000), std::nullopt, "fixture_odometry", 1, false, "", 0};
+  session->seed(saved);
+  install(*session, kFixture, 2);
+  session->push(odometry(1000, 1.0));
+  ASSERT_TRUE(wait_estimates(1));
+  EXPECT_NEAR(estimates().back().pose.translation().x(), 0.0, 1e-9);  // the plugin's own start, not 50
+  session->set_pose(pose_at(3.0, 0.0, 10));  // stamped before the saved pose: still the robot's own
+  session->push(odometry(2000, 2.0));
+  ASSERT_TRUE(wait_estimates(2));
+  EXPECT_NEAR(estimates().back().pose.translation().x(), 3.0, 1e-9);
+  EXPECT_EQ(session->status().counters.rejected, 0u);
+}
+
+// What the session holds is counted and named: here messages wait for a plugin still being
+// configured (it takes a while), then all are used.
+TEST_F(SessionTest, HeldMessagesAreCountedAndTheirWaitIsNamed) {
+  auto session = make(16);
+  request(*session, faulty("fault: none, work_ms: 300"), 1);
+  session->push(odometry(1000));
+  session->push(odometry(2000));
+  const auto held = session->status();
+  EXPECT_EQ(held.counters.received, held.counters.used + held.counters.dropped + held.counters.rejected +
+                                        held.counters.held);
+  EXPECT_GE(held.counters.held, 1u);
+  EXPECT_FALSE(held.waiting_for.empty());
+  ASSERT_TRUE(wait_counted(*session, 2));
+  const auto done = session->status();
+  EXPECT_EQ(done.counters.held, 0u);
+  EXPECT_EQ(done.waiting_for, "");
+  EXPECT_EQ(done.counters.received, done.counters.used);
+}
+
+// Forty robots start at once with one session per worker: forty workers, each with one
+// instance (a slot is taken as it is found, and a new worker comes with its first slot taken).
+TEST(PluginWorkers, SessionsPerWorkerHoldsWhenManySessionsStartAtOnce) {
+  struct Owner : InstanceOwner {
+    void on_reply(uint64_t, worker::Reply) override {}
+    void on_log(uint64_t, const worker::LogLine&) override {}
+    void on_lost(uint64_t, const WorkerLoss&) override {}
+  };
+  constexpr int kSessions = 40;
+  Logger logger(LogLevel::kError);
+  WorkerSettings settings;
+  settings.executable = LOCD_WORKER_EXECUTABLE;
+  settings.sessions_per_worker = 1;
+  PluginWorkers workers(settings, Limits{}, logger);
+  const PluginCatalog catalog({LOCD_BROKEN_PLUGIN_DIR});
+  const auto library = catalog.require("fixture_odometry");
+  auto owner = std::make_shared<Owner>();
+  std::vector<uint64_t> instances(kSessions, 0);
+  std::vector<std::thread> starting;
+  std::atomic<bool> go{false};
+  for (int i = 0; i < kSessions; ++i) {
+    starting.emplace_back([&, i] {
+      while (!go) std::this_thread::yield();
+      instances[i] = workers.create_instance(library, owner);
+    });
+  }
+  go = true;
+  for (auto& t : starting) t.join();
+  std::set<pid_t> pids;
+  for (const uint64_t instance : instances) pids.insert(workers.pid_of(instance));
+  EXPECT_EQ(pids.size(), static_cast<size_t>(kSessions));
+  EXPECT_EQ(workers.worker_count(), static_cast<size_t>(kSessions));
+  EXPECT_EQ(pids.count(0), 0u);
+  workers.shutdown(std::chrono::milliseconds(1000));
 }
 
 TEST_F(SessionTest, ARejectionFloodIsCountedInFullAndLoggedWithinItsBudget) {

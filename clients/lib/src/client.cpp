@@ -129,6 +129,8 @@ SessionStatus status_from_wire(const locd_msg_SessionStatus& m) {
   }
   s.localization = localization_name(m.localization);
   s.localization_reason = dds::to_string(m.localization_reason);
+  s.held = m.held;
+  s.waiting_for = dds::to_string(m.waiting_for);
   s.stamp_ns = m.header.stamp_ns;
   return s;
 }
@@ -201,7 +203,7 @@ struct Client::Impl {
     server_reader = dds::Reader<locd_msg_ServerInfo>(participant, topics::kServerInfo, dds::QosProfile::kState,
                                                       [this](const locd_msg_ServerInfo& m) { on_server_info(m); });
     goal_reader = dds::Reader<locd_msg_ExplorationGoal>(
-        participant, topics::kExplorationGoal, dds::QosProfile::kState,
+        participant, topics::kExplorationGoal, dds::QosProfile::kOutputState,
         [this](const locd_msg_ExplorationGoal& m) { on_exploration_goal(m); }, 8, watched);
   }
 

@@ -105,6 +105,8 @@ Json status_json(const SessionStatus& s) {
           {"lost_by_stream", lost_json(s)},
           {"localization", s.localization},
           {"localization_reason", s.localization_reason},
+          {"held", s.held},
+          {"waiting_for", s.waiting_for},
           {"stamp_ns", s.stamp_ns}};
 }
 
@@ -250,7 +252,7 @@ int command_status(const CommandLine& cl) {
   // New columns go before LAST_ERROR (free text, last), so scripts reading the older ones still work.
   const std::vector<std::string> header = {"ROBOT",   "STATE",   "PLUGIN",       "SERVER",   "RECEIVED",
                                            "USED",    "DROPPED", "REJECTED",     "UPDATES",  "LAST_MS",
-                                           "LOCALIZATION", "FAILURES", "LOST",    "LAST_ERROR"};
+                                           "LOCALIZATION", "FAILURES", "LOST",    "HELD",     "LAST_ERROR"};
   std::vector<std::vector<std::string>> rows = {header};
   for (const auto& s : statuses) {
     char last_ms[32];
@@ -258,7 +260,8 @@ int command_status(const CommandLine& cl) {
     rows.push_back({escaped(s.robot_id), s.state, s.plugin.empty() ? "-" : escaped(s.plugin), escaped(s.server_id),
                     std::to_string(s.received), std::to_string(s.used), std::to_string(s.dropped),
                     std::to_string(s.rejected), std::to_string(s.updates), last_ms, s.localization,
-                    std::to_string(s.failures), std::to_string(s.lost), s.last_error.empty() ? "-" : escaped(s.last_error, 4096)});
+                    std::to_string(s.failures), std::to_string(s.lost), std::to_string(s.held),
+                    s.last_error.empty() ? "-" : escaped(s.last_error, 4096)});
   }
   std::vector<size_t> widths(header.size(), 0);
   for (const auto& row : rows) {

@@ -23,6 +23,7 @@
 #include <sstream>
 #include <thread>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "locd/client/wire.hpp"
 #include "locd/dds/convert.hpp"
@@ -135,6 +136,14 @@ struct Run {
   std::vector<Item> items;
   PoseEstimate initial_pose;
   std::unordered_map<int64_t, size_t> kind_at;  // t in ns -> measurement kind (variant index)
+  std::unordered_map<int64_t, Eigen::Vector2d> truth_at;  // t in ns -> true position (outage report)
+};
+
+// A pose received, for the outage report.
+struct Arrival {
+  int64_t wall_ns;
+  int64_t t_ns;  // the robot's time of its stamp
+  double error_m;
 };
 
 // The writers of up to kRobotsPerWriter robots, in all their partitions.
@@ -183,8 +192,52 @@ struct Observations {
   size_t poses = 0;
   size_t unmatched = 0;  // poses whose stamp is no message of this run
   std::vector<int64_t> last_pose_ns;  // per robot, wall clock of the last pose received (0: none)
+  std::vector<std::unordered_set<int64_t>> stamps;  // per robot, the stamps of the poses received
+  std::vector<std::vector<Arrival>> arrivals;       // per robot, with --outage-report
+  size_t duplicated = 0;  // poses for a robot and stamp received before (from another server)
   std::vector<double> max_gap_ms;     // per robot, the longest wait between two poses
 };
+
+// Per robot: its longest wait between two poses, when it ended, and the errors then and 1 s and
+// 5 s (robot time) later (null when the run ended before).
+Json outage_report(const std::vector<std::vector<Arrival>>& arrivals) {
+  Json wait_ms = Json::array(), served_again = Json::array(), first = Json::array(), after_1s = Json::array(),
+       after_5s = Json::array();
+  auto error_after = [](const std::vector<Arrival>& a, size_t from, int64_t later_ns) -> Json {
+    for (size_t j = from; j < a.size(); ++j) {
+      if (a[j].t_ns >= a[from].t_ns + later_ns) return a[j].error_m;
+    }
+    return nullptr;
+  };
+  for (const auto& a : arrivals) {
+    size_t end = 0;  // the arrival that ended the longest wait
+    int64_t longest = -1;
+    for (size_t j = 1; j < a.size(); ++j) {
+      if (a[j].wall_ns - a[j - 1].wall_ns > longest) {
+        longest = a[j].wall_ns - a[j - 1].wall_ns;
+        end = j;
+      }
+    }
+    if (end == 0) {
+      wait_ms.push_back(nullptr);
+      served_again.push_back(nullptr);
+      first.push_back(nullptr);
+      after_1s.push_back(nullptr);
+      after_5s.push_back(nullptr);
+      continue;
+    }
+    wait_ms.push_back(static_cast<double>(a[end].wall_ns - a[end - 1].wall_ns) * 1e-6);
+    served_again.push_back(a[end].wall_ns);
+    first.push_back(a[end].error_m);
+    after_1s.push_back(error_after(a, end, 1'000'000'000));
+    after_5s.push_back(error_after(a, end, 5'000'000'000));
+  }
+  return {{"longest_wait_ms", wait_ms},
+          {"served_again_wall_ns", served_again},
+          {"error_m_first", first},
+          {"error_m_1s_later", after_1s},
+          {"error_m_5s_later", after_5s}};
+}
 
 void write_plot(const std::string& file, const std::map<long, std::pair<size_t, std::vector<double>>>& per_second,
                 size_t robots) {
@@ -255,6 +308,10 @@ int run_fleet(const Scenario& scenario, const FleetOptions& options) {
       }
       last_t[kind] = m->t;
       runs[k].kind_at[std::llround(m->t * 1e9)] = kind;
+      if (options.outage_report) {
+        const Pose2 truth = simulation.truth().at(m->t).pose;
+        runs[k].truth_at[std::llround(m->t * 1e9)] = Eigen::Vector2d(truth.x, truth.y);
+      }
       runs[k].items.push_back({m->t, std::move(m->measurement)});
     }
   }
@@ -284,6 +341,8 @@ int run_fleet(const Scenario& scenario, const FleetOptions& options) {
   seen.status.resize(n);
   seen.answered.resize(n, std::array<size_t, 6>{});
   seen.last_pose_ns.resize(n, 0);
+  seen.stamps.resize(n);
+  seen.arrivals.resize(n);
   seen.max_gap_ms.resize(n, 0.0);
   int64_t origin_ns = 0;  // stamp of t = 0 (set before any sensor message)
   const dds::Partitions every_robot{topics::kAllRobotsPartition};
@@ -314,6 +373,10 @@ int run_fleet(const Scenario& scenario, const FleetOptions& options) {
           ++seen.unmatched;
           return;
         }
+        if (!seen.stamps[i].insert(m.header.stamp_ns).second) {
+          ++seen.duplicated;
+          return;
+        }
         // When the message was due (stamps are the run's clock, publishing paced by --rate).
         const double due = static_cast<double>(origin_ns) + static_cast<double>(t_ns + offset_ns(i)) / options.rate;
         const double latency_ms = (static_cast<double>(now) - due) * 1e-6;
@@ -323,6 +386,12 @@ int run_fleet(const Scenario& scenario, const FleetOptions& options) {
           seen.max_gap_ms[i] = std::max(seen.max_gap_ms[i], static_cast<double>(now - seen.last_pose_ns[i]) * 1e-6);
         }
         seen.last_pose_ns[i] = now;
+        if (options.outage_report) {
+          const auto truth = runs[i % k_runs].truth_at.find(t_ns);
+          const Eigen::Vector2d position(m.pose.position.x, m.pose.position.y);
+          const double error = truth == runs[i % k_runs].truth_at.end() ? std::nan("") : (position - truth->second).norm();
+          seen.arrivals[i].push_back({now, t_ns, error});
+        }
         seen.latency_ms.push_back(latency_ms);
         auto& second = seen.per_second[static_cast<long>((now - origin_ns) / 1'000'000'000)];
         ++second.first;
@@ -496,6 +565,7 @@ int run_fleet(const Scenario& scenario, const FleetOptions& options) {
               {"poses_expected", expected_poses},
               {"poses_received", seen.poses},
               {"poses_missing", expected_poses > seen.poses ? expected_poses - seen.poses : 0},
+              {"poses_duplicated", seen.duplicated},
               {"poses_per_s", static_cast<double>(seen.poses) / run_s},
               {"latency_ms_p50", percentile(seen.latency_ms, 0.5)},
               {"latency_ms_p99", percentile(seen.latency_ms, 0.99)},
@@ -519,6 +589,7 @@ int run_fleet(const Scenario& scenario, const FleetOptions& options) {
     out["server_memory_mb"] = after.pss_mb;
     out["server_memory_mb_per_session"] = (after.pss_mb - before_sessions.pss_mb) / static_cast<double>(n);
   }
+  if (options.outage_report) out["outage"] = outage_report(seen.arrivals);
   if (options.json) {
     std::cout << out.dump() << std::endl;
   } else {

@@ -5,7 +5,8 @@
 // poses per second, latency (publish -> pose) p50 / p99 / max, messages the servers counted as
 // lost in transit, dropped or rejected, the generator's own lag, and (with --server-pid, for a
 // server on this machine) the server's CPU and memory with its plugin workers; as JSON or a
-// summary, and a plot of poses per second and latency over the run.
+// summary, and a plot of poses per second and latency over the run; on request, how each robot
+// came back after its longest wait for a pose (a server restarted, or taken over).
 #pragma once
 
 #include <sys/types.h>
@@ -31,6 +32,10 @@ struct FleetOptions {
   std::string plot_file;
   double server_timeout_s = 60.0;    // for every session to start and take its initial pose
   std::string robot_prefix = "fleet_";
+  // Per robot: when its longest wait between two poses ended (wall clock), and the position error
+  // of the pose that ended it and of the poses 1 s and 5 s (robot time) later: how a fleet comes
+  // back after its server was down (bench/server/site_restart.sh).
+  bool outage_report = false;
 };
 
 // Returns the process exit code.

@@ -50,9 +50,11 @@ const char* kUsage =
     "      compares the poses with the recorded ones. Maps: --map-dir, default config/maps\n"
     "  locsim fleet SCENARIO.yaml --robots N [--domain N] [--rate X] [--duration S] [--seed N]\n"
     "               [--distinct K] [--server-pid PID]... [--server-timeout S] [--json] [--plot FILE.png]\n"
+    "               [--outage-report]\n"
     "      N simulated robots (K distinct runs of a laser/odometry scenario, each robot its own id and\n"
     "      clock) against running locd servers: poses per second, latency p50/p99/max, what the servers\n"
-    "      lost, dropped or rejected, and with --server-pid the servers' CPU and memory (workers included)\n"
+    "      lost, dropped or rejected, and with --server-pid the servers' CPU and memory (workers included);\n"
+    "      --outage-report: per robot, when its longest wait for a pose ended and its error then\n"
     "  Segment worlds, run / live / montecarlo: --kidnap-at S [--kidnap-distance M] carries the robot at S\n"
     "      to a route pose >= M m away (default 10; its odometry does not see it); --wrong-start M starts\n"
     "      the plugin from a route pose >= M m off. Either replaces the scenario's kidnap / start.\n"
@@ -164,6 +166,7 @@ FleetCommand parse_fleet(const std::vector<std::string>& args) {
   app.set_help_flag();
   app.add_option("scenario", scenario, "SCENARIO.yaml");
   app.add_flag("--json", c.options.json);
+  app.add_flag("--outage-report", c.options.outage_report);
   app.add_option("--plot", c.options.plot_file);
   app.add_option("--robots", robots);
   app.add_option("--domain", domain);

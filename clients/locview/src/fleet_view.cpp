@@ -78,7 +78,7 @@ struct FleetView::Impl {
         emit(*r, kTruth, time_of(m.header.stamp_ns), [&] { return pose_in_frame(m.header, m.pose); });
       }
     });
-    diagnostics = reader<locd_msg_Diagnostics>(topics::kDiagnostics, QosProfile::kSensor, [this](const locd_msg_Diagnostics& m) {
+    diagnostics = reader<locd_msg_Diagnostics>(topics::kDiagnostics, QosProfile::kOutput, [this](const locd_msg_Diagnostics& m) {
       const Robot* r = robot(m.robot_id);
       if (!r) return;
       const uint64_t t = time_of(m.header.stamp_ns);
@@ -91,17 +91,17 @@ struct FleetView::Impl {
     cloud = reader<locd_msg_PointCloud>(topics::kCloud, QosProfile::kSensor, [this](const locd_msg_PointCloud& m) {
       if (const Robot* r = robot(m.robot_id)) emit(*r, kCloud, time_of(m.header.stamp_ns), [&] { return sensor_cloud(m); });
     });
-    landmarks = reader<locd_msg_LandmarkMap>(topics::kLandmarkMap, QosProfile::kState, [this](const locd_msg_LandmarkMap& m) {
+    landmarks = reader<locd_msg_LandmarkMap>(topics::kLandmarkMap, QosProfile::kOutputState, [this](const locd_msg_LandmarkMap& m) {
       if (const Robot* r = robot(m.robot_id)) {
         emit(*r, kLandmarks, time_of(m.header.stamp_ns), [&] { return landmark_scene(m); });
       }
     });
-    map_cloud = reader<locd_msg_PointCloudMap>(topics::kMapCloud, QosProfile::kState, [this](const locd_msg_PointCloudMap& m) {
+    map_cloud = reader<locd_msg_PointCloudMap>(topics::kMapCloud, QosProfile::kOutputState, [this](const locd_msg_PointCloudMap& m) {
       if (const Robot* r = robot(m.robot_id)) {
         emit(*r, kMapCloud, time_of(m.header.stamp_ns), [&] { return view::map_cloud(m); });
       }
     });
-    goal = reader<locd_msg_ExplorationGoal>(topics::kExplorationGoal, QosProfile::kState, [this](const locd_msg_ExplorationGoal& m) {
+    goal = reader<locd_msg_ExplorationGoal>(topics::kExplorationGoal, QosProfile::kOutputState, [this](const locd_msg_ExplorationGoal& m) {
       if (const Robot* r = robot(m.robot_id)) {
         emit(*r, kGoal, time_of(m.header.stamp_ns), [&] { return exploration_goal(m); });
       }
@@ -111,7 +111,7 @@ struct FleetView::Impl {
         emit(*r, kStatus, time_of(m.header.stamp_ns), [&] { return session_status(m); });
       }
     });
-    grid = reader<locd_msg_GridMap>(topics::kGrid, QosProfile::kState, [this](const locd_msg_GridMap& m) {
+    grid = reader<locd_msg_GridMap>(topics::kGrid, QosProfile::kOutputState, [this](const locd_msg_GridMap& m) {
       const uint32_t channel = grid_channel(m.robot_id, dds::to_string(m.layer));
       emit(channel, true, time_of(m.header.stamp_ns), [&] { return view::grid(m); });
     });

@@ -68,6 +68,8 @@ struct Recorder::Impl {
     dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, options.depth);
     // A transient-local reader would not match the volatile writers of sensors and poses.
     if (t.transient_local) dds_qset_durability(qos.get(), DDS_DURABILITY_TRANSIENT_LOCAL);
+    // The serving server's outputs: what the robot gets (a shared reader would match no server).
+    if (t.exclusive) dds_qset_ownership(qos.get(), DDS_OWNERSHIP_EXCLUSIVE);
     dds_listener_t* listener = dds_create_listener(source.get());
     dds_lset_data_available(listener, &Impl::on_data_available);
     source->subscriber = dds::subscriber_for(participant, partitions);

@@ -29,7 +29,7 @@ TEST(CeilingPfOverDds, TracksFromCameraFramesAndRejectsABadFrame) {
   size_t diagnostics_with_particles = 0;
   std::string diagnostics_plugin;
   locd::dds::Reader<locd_msg_Diagnostics> diagnostics(
-      robot.participant(), locd::topics::kDiagnostics, QosProfile::kSensor, [&](const locd_msg_Diagnostics& m) {
+      robot.participant(), locd::topics::kDiagnostics, QosProfile::kOutput, [&](const locd_msg_Diagnostics& m) {
         std::lock_guard<std::mutex> lock(robot.mutex());
         if (m.particles._length > 0) ++diagnostics_with_particles;
         diagnostics_plugin = locd::dds::to_string(m.plugin);

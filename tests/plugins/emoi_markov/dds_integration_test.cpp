@@ -54,7 +54,7 @@ TEST(EmoiMarkovOverDds, LocalizesFromScansAndRejectsABadScan) {
   size_t diagnostics_with_coverage = 0;
   std::string diagnostics_plugin;
   locd::dds::Reader<locd_msg_GridMap> grids(
-      robot.participant(), locd::topics::kGrid, QosProfile::kState, [&](const locd_msg_GridMap& m) {
+      robot.participant(), locd::topics::kGrid, QosProfile::kOutputState, [&](const locd_msg_GridMap& m) {
         if (locd::dds::to_string(m.layer) != "belief") return;
         double sum = 0.0;
         for (uint32_t i = 0; i < m.cells._length; ++i) sum += m.cells._buffer[i];
@@ -64,7 +64,7 @@ TEST(EmoiMarkovOverDds, LocalizesFromScansAndRejectsABadScan) {
         belief_sum = sum;
       }, 8, robot.partition());
   locd::dds::Reader<locd_msg_Diagnostics> diagnostics(
-      robot.participant(), locd::topics::kDiagnostics, QosProfile::kSensor, [&](const locd_msg_Diagnostics& m) {
+      robot.participant(), locd::topics::kDiagnostics, QosProfile::kOutput, [&](const locd_msg_Diagnostics& m) {
         std::lock_guard<std::mutex> lock(robot.mutex());
         for (uint32_t i = 0; i < m.values._length; ++i) {
           if (locd::dds::to_string(m.values._buffer[i].name) == "coverage_r3") ++diagnostics_with_coverage;

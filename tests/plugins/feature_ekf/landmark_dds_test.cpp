@@ -37,7 +37,7 @@ TEST(FeatureEkfLandmarksOverDds, TracksARoadSignDriveAndRejectsAnUnknownClass) {
   size_t associated = 0, records = 0;
   std::string diagnostics_plugin;
   locd::dds::Reader<locd_msg_Diagnostics> diagnostics(
-      robot.participant(), locd::topics::kDiagnostics, QosProfile::kSensor, [&](const locd_msg_Diagnostics& m) {
+      robot.participant(), locd::topics::kDiagnostics, QosProfile::kOutput, [&](const locd_msg_Diagnostics& m) {
         std::lock_guard<std::mutex> lock(robot.mutex());
         diagnostics_plugin = locd::dds::to_string(m.plugin);
         for (uint32_t i = 0; i < m.associations._length; ++i) {

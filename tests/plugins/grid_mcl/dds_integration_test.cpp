@@ -42,7 +42,7 @@ TEST(GridMclOverDds, TracksOnTheCorridorGridAndABadMapCostsOnlyItsRobot) {
   int grid_width = 0, grid_height = 0;
   size_t grid_cells = 0;
   locd::dds::Reader<locd_msg_GridMap> grids(
-      robot.participant(), locd::topics::kGrid, QosProfile::kState,
+      robot.participant(), locd::topics::kGrid, QosProfile::kOutputState,
       [&](const locd_msg_GridMap& m) {
         std::lock_guard<std::mutex> lock(robot.mutex());
         if (locd::dds::to_string(m.layer) != "occupancy") return;

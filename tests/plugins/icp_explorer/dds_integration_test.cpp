@@ -48,7 +48,7 @@ TEST(IcpExplorerOverDds, RegistersScansPublishesMapAndGoalAndRejectsABadCloud) {
   std::string goal_plugin;
   size_t map_points = 0;
   locd::dds::Reader<locd_msg_ExplorationGoal> goals(
-      participant, locd::topics::kExplorationGoal, QosProfile::kState, [&](const locd_msg_ExplorationGoal& m) {
+      participant, locd::topics::kExplorationGoal, QosProfile::kOutputState, [&](const locd_msg_ExplorationGoal& m) {
         const locd::ExplorationGoal g = locd::dds::from_wire(m);
         std::lock_guard<std::mutex> lock(robot.mutex());
         goals_seen.push_back(g);
@@ -56,7 +56,7 @@ TEST(IcpExplorerOverDds, RegistersScansPublishesMapAndGoalAndRejectsABadCloud) {
         robot.notify();
       }, 8, robot.partition());
   locd::dds::Reader<locd_msg_PointCloudMap> maps(
-      participant, locd::topics::kMapCloud, QosProfile::kState, [&](const locd_msg_PointCloudMap& m) {
+      participant, locd::topics::kMapCloud, QosProfile::kOutputState, [&](const locd_msg_PointCloudMap& m) {
         std::lock_guard<std::mutex> lock(robot.mutex());
         map_points = m.xyz._length / 3;
         robot.notify();

@@ -62,11 +62,17 @@ class Participant : public Entity {
   explicit Participant(dds_domainid_t domain);
 };
 
-// QoS profiles, DESIGN.md "Data flow".
+// QoS profiles, DESIGN.md "Data flow". A server's per-robot outputs have EXCLUSIVE ownership
+// (README "Many servers, one fleet"): a reader takes each robot's samples from one writer only,
+// the one of highest ownership strength (the serving server's claim), so a robot never gets one
+// stamp's pose from two servers. Readers and writers of those topics must both say so: DDS
+// matches no exclusive writer with a shared reader.
 enum class QosProfile {
   kSensor,   // reliable, keep-last(depth), volatile
-  kPose,     // reliable, keep-last 1 per robot, volatile
+  kPose,     // reliable, keep-last 1 per robot, volatile, exclusive ownership
   kState,    // reliable, keep-last 1 per instance, transient-local: late joiners get it
+  kOutput,       // a server's per-robot output (diagnostics): reliable, keep-last(depth), volatile, exclusive
+  kOutputState,  // a server's per-robot maps, grids, goals: reliable, keep-last 1, transient-local, exclusive
   // ROS 2's profiles (rclcpp's QoS presets; notes/dds.md), for the topics of ROS 2 robots:
   kRos2SensorData,  // best effort, keep-last(depth), volatile: a reader matches best-effort and reliable writers
   kRos2Default,     // reliable, keep-last(depth), volatile
@@ -75,6 +81,8 @@ enum class QosProfile {
 
 struct QosDeleter { void operator()(dds_qos_t* q) const { dds_delete_qos(q); } };
 std::unique_ptr<dds_qos_t, QosDeleter> make_qos(QosProfile profile, int depth = 8);
+// True for the profiles with exclusive ownership (kPose, kOutput, kOutputState).
+bool exclusive_ownership(QosProfile profile);
 
 template <typename T> const dds_topic_descriptor_t& descriptor();
 #define LOCD_DDS_DESCRIPTOR(TYPE) \
@@ -121,10 +129,12 @@ template <typename T>
 class Writer {
  public:
   Writer() = default;
+  // `ownership_strength`: for the exclusive profiles, the writer's strength (highest wins).
   Writer(const Participant& p, const std::string& topic, QosProfile profile, int depth = 8,
-         const Partitions& partitions = {}) {
+         const Partitions& partitions = {}, int32_t ownership_strength = 0) {
     topic_entity_ = Entity(create_topic(p, descriptor<T>(), topic));
     auto qos = make_qos(profile, depth);
+    if (exclusive_ownership(profile)) dds_qset_ownership_strength(qos.get(), ownership_strength);
     publisher_ = publisher_for(p, partitions);
     const dds_entity_t parent = publisher_.handle() ? publisher_.handle() : p.handle();
     entity_ = Entity(check(dds_create_writer(parent, topic_entity_.handle(), qos.get(), nullptr),

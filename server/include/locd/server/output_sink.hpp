@@ -26,6 +26,9 @@ struct SessionCounters {
   uint64_t lost = 0;      // lost in transit: gaps in the sequence numbers of a sensor stream
   std::array<uint64_t, 6> lost_by_kind{};  // the same per measurement kind (variant index)
   double last_update_ms = 0.0;  // plugin compute time of the last update
+  // Messages taken and not yet used, dropped or rejected (queued, or with the plugin): always
+  // received = used + dropped + rejected + held.
+  uint64_t held = 0;
 };
 
 struct SessionStatusReport {
@@ -41,6 +44,7 @@ struct SessionStatusReport {
   int64_t initial_pose_stamp_ns = 0;  // stamp of the last initial pose the plugin holds (0 = none)
   uint32_t failures = 0;              // plugin failures (crash, exit, hang, bad output)
   LocalizationAssessment localization;  // from the plugin's last update that judged it
+  std::string waiting_for;  // what the held messages wait for (empty when none is held)
 };
 
 struct ServerInfoReport {
@@ -66,8 +70,9 @@ class OutputSink {
   virtual void publish_server_info(const ServerInfoReport& info) = 0;
   // To the fleet's other servers (default: a lone server, nothing to tell). A claim is written
   // while this server serves the robot and withdrawn when it stops; a resume state is where the
-  // robot would resume on another server.
-  virtual void publish_claim(const std::string& robot_id, bool serving) {}
+  // robot would resume on another server. The claim's strength (fleet.hpp) is also the
+  // ownership strength of the robot's outputs: they are published only while claimed.
+  virtual void publish_claim(const std::string& robot_id, bool serving, int32_t strength) {}
   // Writes every claim this server holds again, each with the time it was first made: a server
   // that joins, or comes back after its network was cut (it had dropped the claims it could not
   // hear), learns them; a double claim is then settled for the newest as usual.

@@ -32,6 +32,10 @@ struct WorkerSettings {
   double configure_deadline_s = 120.0;
   double update_deadline_s = 10.0;   // update, set_pose, save_map, release
   long memory_limit_mb = 4096;       // address space of a worker (RLIMIT_AS); 0 = unbounded
+  // A worker process pinged every kPingPeriod that has not answered for this long is killed: it
+  // is stopped (SIGSTOP) or frozen, whatever its request's deadline. A thread of its own answers,
+  // so a plugin busy with a long update still does. 0: no ping.
+  double liveness_timeout_s = 0.7;
   // Per-plugin overrides (config `plugin_workers.plugins`).
   struct Override {
     std::optional<size_t> sessions_per_worker;
@@ -111,6 +115,9 @@ class PluginWorkers {
   void kill(const std::shared_ptr<Worker>& worker, const std::string& reason);
   void reap(const std::shared_ptr<Worker>& worker);
   void check_deadlines();
+  // Pings the workers and kills one that stopped answering (liveness_timeout_s).
+  void check_liveness();
+  void read_liveness(const std::shared_ptr<Worker>& worker);
   void run_due_timers();
   int next_wait_ms() const;
   std::shared_ptr<Worker> worker_by_key(uint64_t key) const;
@@ -136,6 +143,7 @@ class PluginWorkers {
   uint64_t next_worker_key_ = 1;
   bool stopping_ = false;
   bool stopped_ = false;
+  std::chrono::steady_clock::time_point last_liveness_check_{};  // I/O thread only
   std::thread io_;
 };
 

@@ -25,10 +25,12 @@ struct ResumeState {
   uint64_t request_id = 0;  // the session request whose plugin produced it
   bool failed = false;      // that request's plugin failed max_failures times and was stopped
   std::string server;       // the server whose session it comes from (another one's, on a takeover)
+  int32_t claim_strength = 0;  // of the claim it was served under (fleet.hpp); the state file keeps it
 };
 
-// The odometry pose at `stamp_ns`, extrapolated from `latest` (taken at or before it) with its
-// body velocities; nothing when the gap exceeds kMaxOdometryExtrapolationNs.
+// The odometry pose at `stamp_ns`, carried from `latest` with its body velocities, forwards or
+// backwards (the newest odometry may be a little younger than a scan still queued); nothing when
+// the gap exceeds kMaxOdometryExtrapolationNs either way.
 inline constexpr int64_t kMaxOdometryExtrapolationNs = 1'000'000'000;
 std::optional<Eigen::Isometry3d> odometry_at(const Odometry& latest, int64_t stamp_ns);
 

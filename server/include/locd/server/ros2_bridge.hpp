@@ -53,7 +53,9 @@ class Ros2Bridge : public OutputSink, public SessionObserver {
   void publish_outputs(const std::string& robot_id, const std::string& plugin, const Header& header,
                        const UpdateResult& result, double update_ms) override;
   void publish_server_info(const ServerInfoReport& info) override;
-  void publish_claim(const std::string& robot_id, bool serving) override { next_.publish_claim(robot_id, serving); }
+  void publish_claim(const std::string& robot_id, bool serving, int32_t strength) override {
+    next_.publish_claim(robot_id, serving, strength);
+  }
   void republish_claims() override { next_.republish_claims(); }
   void publish_resume_state(const std::string& robot_id, const ResumeState& state) override {
     next_.publish_resume_state(robot_id, state);

@@ -4,6 +4,7 @@
 // methods (from listener threads; none of them blocks) and publishes through the OutputSink.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <map>
 #include <memory>
@@ -67,7 +68,8 @@ class Server {
   // robots would resume. Decisions follow in rebalance().
   void on_server_alive(const ServerMember& member);
   void on_server_gone(const std::string& server_id);  // its writer was deleted (a clean stop)
-  void on_claim(const std::string& robot_id, const std::string& server_id, bool serving, int64_t since_ns = 0);
+  void on_claim(const std::string& robot_id, const std::string& server_id, bool serving, int64_t since_ns = 0,
+                int32_t strength = 0);
   void on_peer_resume_state(const std::string& robot_id, const std::string& server_id, const ResumeState& state);
   // Applies the fleet's rules (fleet.hpp) to every robot whose latest request asks for a
   // session: starts the ones this server should take (from where they were), stops the ones it
@@ -75,6 +77,12 @@ class Server {
   void rebalance();
 
   void publish_all_status();
+  // True while this server withholds every session's outputs: it was stalled (its loop, which
+  // writes its heartbeat, ran late by kServerSilence or more) while other servers knew it, so
+  // they may have taken its robots over; it hears the fleet again first (its robots' claims),
+  // for kRelistenAfterStall. DDS ownership already keeps a taken-over robot's locd outputs from
+  // it; this also covers the ROS 2 topics, which are keyless and shared.
+  bool outputs_withheld() const;
   const ServerInfoReport& info() const { return info_; }
   std::shared_ptr<Session> find(const std::string& robot_id) const;
   uint64_t messages_without_session() const;
@@ -105,6 +113,7 @@ class Server {
   // Writes the claims made or withdrawn under mutex_ (call after releasing it).
   void publish_claims();
   void forget_server_locked(const std::string& server_id);
+  void note_claim_strength_locked(const std::string& robot_id, int32_t strength);
   // Erases a session from the router (claim withdrawn); under mutex_.
   void forget_locked(std::map<std::string, std::shared_ptr<Session>>::iterator it);
   void report_no_session(const std::string& robot_id, const std::string& topic, const std::string& detail);
@@ -158,7 +167,15 @@ class Server {
   std::map<std::string, ResumeState> peer_states_;
   std::map<std::string, std::pair<int64_t, bool>> shared_;  // robot -> stamp, failed last shared
   uint64_t messages_served_elsewhere_ = 0;
-  std::vector<std::pair<std::string, bool>> claims_to_publish_;  // under mutex_
+  struct ClaimChange {
+    std::string robot_id;
+    bool serving = false;
+    int32_t strength = 0;
+  };
+  std::vector<ClaimChange> claims_to_publish_;  // under mutex_
+  // The strongest claim known on each robot (this server's, others', the state file's): a new
+  // claim is made stronger (claim_strength).
+  std::map<std::string, int32_t> strongest_claim_;
   std::mutex claims_mutex_;                                      // orders publish_claims()
   // Robots another server served, and since when and until when this server heard each without
   // a break (any message): a robot is taken over only while it is heard and after it has been
@@ -170,6 +187,12 @@ class Server {
   };
   std::map<std::string, Heard> last_heard_;
   std::string last_saved_;                     // what save_state wrote last (to skip unchanged writes)
+  // The stall fence (outputs_withheld): steady-clock ns of the loop's last rebalance, and until
+  // when outputs are withheld; whether other servers were known.
+  std::atomic<int64_t> last_tick_ns_{0};
+  std::atomic<int64_t> withheld_until_ns_{0};
+  std::atomic<bool> others_known_{false};
+  mutable std::atomic<uint64_t> outputs_withheld_count_{0};
   std::map<std::string, std::chrono::steady_clock::time_point> ownerless_since_;  // robots with a session only
 };
 

@@ -56,6 +56,9 @@ struct SessionEnvironment {
   worker::ConfigureRequest configure_template;  // limits, map and output directories
   // Called (off the session's lock) when a session whose first request failed is abandoned.
   std::function<void(const std::shared_ptr<Session>&)> forget;
+  // True while the outputs of updates must be withheld (Server::outputs_withheld: this server may
+  // have been taken over while it was stalled); they are dropped, the session goes on.
+  std::function<bool()> outputs_withheld;
 };
 
 class Session : public InstanceOwner, public std::enable_shared_from_this<Session> {
@@ -149,6 +152,7 @@ class Session : public InstanceOwner, public std::enable_shared_from_this<Sessio
     std::string plugin;
     Header header;
     double update_ms = 0.0;
+    bool of_update = false;  // outputs of an update (not a plugin's initial ones): may be withheld
     bool status = false;
     std::vector<uint64_t> release;
     bool forget = false;
@@ -156,6 +160,9 @@ class Session : public InstanceOwner, public std::enable_shared_from_this<Sessio
   };
 
   void pump_locked();
+  // An initial pose not refused as stale: it supersedes the saved state and a resumed pose not
+  // yet handed over, and goes to the plugin (or is kept for the plugin still starting).
+  void take_initial_pose_locked(const PoseEstimate& pose, Publication& out);
   // Where to resume when the plugin's next message is queue_.front() (which must exist).
   PoseEstimate pose_at_next_message_locked() const;
   void configure_on_worker(Pending pending);
@@ -168,6 +175,9 @@ class Session : public InstanceOwner, public std::enable_shared_from_this<Sessio
   void schedule_restart_locked(std::chrono::duration<double> delay);
   void restart(uint64_t generation);
   bool plugin_alive_locked() const { return current_ && current_->instance != 0; }
+  // Messages taken and not yet used, dropped or rejected; and what they wait for (the status).
+  size_t held_locked() const;
+  std::string waiting_for_locked() const;
   void finish(Publication& out);
   void log(LogLevel level, const std::string& message) const;
   // A rejected message: logged within the per-second budget, else counted as not logged.
@@ -196,6 +206,7 @@ class Session : public InstanceOwner, public std::enable_shared_from_this<Sessio
   std::optional<Odometry> last_odometry_sent_;
   std::optional<Odometry> newest_odometry_;
   std::optional<ResumeState> seeded_;  // from the state file of the server's previous run
+  bool resume_from_seed_ = false;      // resume_ is the seeded state, not yet confirmed by the robot
   int64_t initial_pose_stamp_ns_ = 0;  // last initial pose the plugin holds
   LocalizationAssessment localization_;  // from the plugin's last judged update
   uint64_t latest_generation_ = 0;

@@ -38,6 +38,8 @@ struct SessionStatus {
   std::vector<std::pair<std::string, uint64_t>> lost_by_stream;  // topic, count (losses only)
   std::string localization = "unknown";  // "unknown", "tracking", "uncertain", "lost"
   std::string localization_reason;       // the plugin's criterion
+  uint64_t held = 0;        // taken, not yet used, dropped or rejected: received = used + dropped + rejected + held
+  std::string waiting_for;  // what the held messages wait for (empty when none is held)
   int64_t stamp_ns = 0;
 };
 

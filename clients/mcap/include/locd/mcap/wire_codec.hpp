@@ -23,6 +23,7 @@ struct TopicInfo {
   bool per_robot;
   bool transient_local;   // state topics: a late reader gets the last sample per instance
   bool robot_input;       // robot -> locd (sensors, requests, initial pose): what a replay feeds
+  bool exclusive = false; // a server's output with exclusive ownership (dds.hpp): its readers must say so
 };
 
 const std::vector<TopicInfo>& locd_topics();
