@@ -33,5 +33,6 @@ inline std::string read_text(const std::filesystem::path& file) {
 //   130-139 grid_mcl                        140-149 ROS 2 and Fast DDS interoperability
 //   150-179 fleet                           180-189 honest accuracy
 //   190-199 addressing (partitions, robot ids)
+//   217-222 ROS 2 as a Nav2 AMCL drop-in (issue 24)
 //   0 the demo (LOCD_DOMAIN overrides)
 }  // namespace locd::test
