@@ -1,12 +1,17 @@
 #include "locd/sdk/types.hpp"
 
 #include <cmath>
+#include <limits>
 
 namespace locd {
 
-bool LaserScan::valid_return(size_t i) const {
+RangeReading LaserScan::reading(size_t i) const {
   const float r = ranges[i];
-  return std::isfinite(r) && r >= range_min && r <= range_max;
+  if (std::isnan(r)) return RangeReading::kInvalid;
+  if (r == -std::numeric_limits<float>::infinity()) return RangeReading::kTooClose;
+  if (r >= range_max) return RangeReading::kNoReturn;  // +inf included
+  if (r < range_min) return RangeReading::kInvalid;
+  return RangeReading::kHit;
 }
 
 MeasurementKind kind_of(const Measurement& m) {

@@ -60,7 +60,7 @@ void validate(const LaserScan& scan) {
   for (size_t i = 0; i < scan.ranges.size(); ++i) {
     if (scan.valid_return(i)) return;
   }
-  throw InputError("scan: no beam has a finite range within [range_min, range_max]");
+  throw InputError("scan: no beam is a return (a range r with range_min <= r < range_max)");
 }
 
 void validate(const PointCloud& cloud) {

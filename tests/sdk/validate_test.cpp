@@ -52,6 +52,22 @@ TEST(Validate, ScanGeometryAndReturns) {
   EXPECT_NE(error_of<InputError>([&] { validate(intensities); }).find("intensities"), std::string::npos);
 }
 
+TEST(LaserScanReading, Rep117) {
+  const float inf = std::numeric_limits<float>::infinity();
+  LaserScan s = good_scan();  // range_min 0.05, range_max 30
+  s.ranges = {2.0f, 0.05f, 30.0f, 31.0f, inf, -inf, kNaN, 0.0f, 0.01f};
+  const RangeReading expected[] = {RangeReading::kHit,      RangeReading::kHit,      RangeReading::kNoReturn,
+                                   RangeReading::kNoReturn, RangeReading::kNoReturn, RangeReading::kTooClose,
+                                   RangeReading::kInvalid,  RangeReading::kInvalid,  RangeReading::kInvalid};
+  for (size_t i = 0; i < s.ranges.size(); ++i) {
+    EXPECT_EQ(s.reading(i), expected[i]) << "beam " << i << " = " << s.ranges[i];
+    EXPECT_EQ(s.valid_return(i), expected[i] == RangeReading::kHit) << "beam " << i;
+  }
+  // A scan of max-range readings, infinities and NaN only has no return: refused.
+  s.ranges = {30.0f, inf, -inf, kNaN, 0.0f};
+  EXPECT_NE(error_of<InputError>([&] { validate(s); }).find("no beam is a return"), std::string::npos);
+}
+
 TEST(Validate, LimitsAreCheckedOnceByCount) {
   EXPECT_NO_THROW(check_limit("scan", "beams", Limits{}.max_scan_beams, Limits{}.max_scan_beams, "max_scan_beams"));
   const std::string message = error_of<InputError>(

@@ -1,6 +1,7 @@
 // Line, corner and edge extraction on scans ray-cast against known walls.
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <random>
 
 #include "locd/feature_ekf/laser_feature_extractor.hpp"
@@ -159,6 +160,35 @@ TEST(LaserFeatureExtractor, SensorOffsetAndRotationAreApplied) {
   ASSERT_NE(far_wall, nullptr);
   EXPECT_NEAR(far_wall->z.x(), 4.0, 1e-4);
   EXPECT_NEAR(far_wall->z.y(), 0.0, 1e-4);
+}
+
+TEST(LaserFeatureExtractor, ErroneousReadingsDoNotBreakAWall) {
+  // REP 117: NaN and zero readings say nothing, so a wall runs on across them and gives the same
+  // line; a no-return (+inf) or too-close (-inf) reading in a wall's run is something else seen
+  // there and splits it.
+  const FeatureMap2D room = test::map_from_walls(kRoom);
+  const LaserScan clean = test::ray_cast_scan(room.lines, Pose2(0, 0, 0), test::ScanGeometry{});
+  const LaserFeatureExtractor extractor(without_floors());
+  const ExtractedFeatures reference = extractor.extract(clean);
+  const ExtractedLine* far_wall = find_line(reference, 4.0, 0.0);
+  ASSERT_NE(far_wall, nullptr);
+  for (const float reading : {std::numeric_limits<float>::quiet_NaN(), 0.0f}) {
+    LaserScan dropped = clean;
+    for (size_t i = 3; i < dropped.ranges.size(); i += 7) dropped.ranges[i] = reading;
+    const ExtractedFeatures f = extractor.extract(dropped);
+    EXPECT_EQ(f.lines.size(), reference.lines.size()) << reading;
+    const ExtractedLine* line = find_line(f, 4.0, 0.0);
+    ASSERT_NE(line, nullptr) << reading;
+    EXPECT_NEAR(line->z.x(), far_wall->z.x(), 1e-6);
+    EXPECT_NEAR(line->z.y(), far_wall->z.y(), 1e-6);
+    EXPECT_LE(line->first_beam, far_wall->first_beam + 1) << "a dropped end beam moves the end by one beam at most";
+    EXPECT_GE(line->last_beam + 1, far_wall->last_beam);
+  }
+  LaserScan split = clean;
+  const size_t middle = (far_wall->first_beam + far_wall->last_beam) / 2;
+  split.ranges[middle] = std::numeric_limits<float>::infinity();
+  const ExtractedFeatures f = extractor.extract(split);
+  EXPECT_EQ(f.lines.size(), reference.lines.size() + 1) << "a no-return in the wall's middle splits it";
 }
 
 TEST(LaserFeatureExtractor, ScanWithoutReturnsGivesNoFeatures) {

@@ -62,6 +62,29 @@ TEST(ScanAgreement, HighAtTheTruePoseLowElsewhere) {
   EXPECT_TRUE(std::isinf(agreement.cast({31.0, 1.0}, 0.0, 5.0)));
 }
 
+TEST(ScanAgreement, Rep117ReadingsAreNoEvidence) {
+  // Real lasers return NaN, zero, -inf (too close) and max-range readings where the map has a
+  // wall: none of them may count as disagreement (issue 22: every 7th beam NaN sent the plugin to
+  // lost). The agreement over the returns left is the same as without them.
+  const FeatureMap2D map = corridor_map();
+  const ScanAgreement agreement(ScanAgreementConfig{}, map);
+  const Pose2 truth(10.0, 1.0, 0.0);
+  std::mt19937_64 rng(5);
+  const LaserScan scan = test::ray_cast_scan(map.lines, truth, test::ScanGeometry{}, &rng);
+  const auto clean = agreement.agreement(scan, truth);
+  ASSERT_TRUE(clean);
+  const float bad[] = {std::numeric_limits<float>::quiet_NaN(), 0.0f, -std::numeric_limits<float>::infinity(),
+                       scan.range_max, std::numeric_limits<float>::infinity()};
+  for (const float reading : bad) {
+    LaserScan dropped = scan;
+    for (size_t i = 0; i < dropped.ranges.size(); i += 7) dropped.ranges[i] = reading;
+    const auto with_dropouts = agreement.agreement(dropped, truth);
+    ASSERT_TRUE(with_dropouts) << reading;
+    EXPECT_GE(*with_dropouts, 0.95) << "every 7th beam " << reading;
+    EXPECT_NEAR(*with_dropouts, *clean, 0.05) << reading;
+  }
+}
+
 TEST(LocalizationMonitor, TrackingOnGoodScans) {
   LocalizationMonitor monitor;
   LocalizationAssessment a;

@@ -69,16 +69,26 @@ TEST(GridMclScan, PicksBeamsAsAmclAndReadsNoReturns) {
   EXPECT_NEAR(prepared.bearing[1], s.angle(6), 1e-6);
   EXPECT_DOUBLE_EQ(prepared.z_max, 8.0) << "the smaller of laser_max_range and the scan's";
   ASSERT_EQ(prepared.hit[0] + prepared.hit[1], 2);
+  // REP 117: +inf and a max-range reading are no return (a max reading for the beam model); NaN,
+  // zero (below range_min) and -inf (too close) say nothing and are left out.
+  const LaserScan clean = s;
   s.ranges[0] = std::numeric_limits<float>::infinity();
-  s.ranges[6] = 0.01f;  // below range_min: no return, as AMCL reads it
+  s.ranges[6] = 8.0f;  // range_max
+  s.ranges[12] = std::numeric_limits<float>::quiet_NaN();
+  s.ranges[18] = 0.0f;
+  s.ranges[24] = -std::numeric_limits<float>::infinity();
   const PreparedScan with_misses = prepare_scan(s, config);
+  ASSERT_EQ(with_misses.range.size(), prepared.range.size() - 3);
   EXPECT_EQ(with_misses.hit[0], 0);
   EXPECT_EQ(with_misses.hit[1], 0);
+  EXPECT_DOUBLE_EQ(with_misses.range[0], 8.0);
   EXPECT_DOUBLE_EQ(with_misses.range[1], 8.0);
-  EXPECT_EQ(with_misses.hits(), prepared.hits() - 2);
+  EXPECT_NEAR(with_misses.bearing[2], s.angle(30), 1e-6) << "beams 12, 18 and 24 skipped";
+  EXPECT_EQ(with_misses.hits(), prepared.hits() - 5);
   // An upside-down laser (rolled by pi) sees its beams mirrored in base_link.
-  s.sensor_pose = Pose2(0.2, 0.0, 0.0).to_isometry() * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX());
-  const PreparedScan flipped = prepare_scan(s, config);
+  LaserScan flipped_scan = clean;
+  flipped_scan.sensor_pose = Pose2(0.2, 0.0, 0.0).to_isometry() * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX());
+  const PreparedScan flipped = prepare_scan(flipped_scan, config);
   EXPECT_NEAR(flipped.bearing[5], -s.angle(30), 1e-6);
 }
 

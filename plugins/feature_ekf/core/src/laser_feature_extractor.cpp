@@ -176,21 +176,33 @@ std::vector<Segment> split_and_merge(const std::vector<Eigen::Vector2d>& points,
   return merged;
 }
 
-Segmentation segment(const ScanPoints& p, double angle_increment, const ExtractorConfig& c) {
+// Whether the beams strictly between two returns break a surface: a no-return or too-close
+// reading does (something else, or nothing, was seen there); NaN and zero readings (REP 117:
+// erroneous) say nothing, so a surface runs on across them.
+bool broken_between(const LaserScan& scan, size_t first_beam, size_t second_beam) {
+  for (size_t b = first_beam + 1; b < second_beam; ++b) {
+    if (scan.reading(b) != RangeReading::kInvalid) return true;
+  }
+  return false;
+}
+
+Segmentation segment(const LaserScan& scan, const ScanPoints& p, const ExtractorConfig& c) {
   Segmentation out;
   out.cluster_start.assign(p.points.size(), false);
   out.cluster_end.assign(p.points.size(), false);
   // Adaptive breakpoint (Borges and Aldon): beyond breakpoint_distance, a gap is still one surface
   // while that surface is seen at an incidence above breakpoint_min_incidence.
-  const double step = std::abs(angle_increment);
-  const double adaptive_gain =
-      c.breakpoint_min_incidence > step ? std::sin(step) / std::sin(c.breakpoint_min_incidence - step) : 0.0;
+  const double beam_step = std::abs(static_cast<double>(scan.angle_increment));
+  const auto adaptive_gain = [&](size_t beams_apart) {
+    const double step = beam_step * static_cast<double>(beams_apart);
+    return c.breakpoint_min_incidence > step ? std::sin(step) / std::sin(c.breakpoint_min_incidence - step) : 0.0;
+  };
   size_t begin = 0;
   for (size_t i = 1; i <= p.points.size(); ++i) {
-    const bool cut = i == p.points.size() || p.beams[i] != p.beams[i - 1] + 1 ||
+    const bool cut = i == p.points.size() || broken_between(scan, p.beams[i - 1], p.beams[i]) ||
                      (p.points[i] - p.points[i - 1]).norm() >
-                         std::max(c.breakpoint_distance,
-                                  adaptive_gain * p.ranges[i - 1] + kBreakpointNoiseSigmas * c.range_stddev);
+                         std::max(c.breakpoint_distance, adaptive_gain(p.beams[i] - p.beams[i - 1]) * p.ranges[i - 1] +
+                                                             kBreakpointNoiseSigmas * c.range_stddev);
     if (!cut) continue;
     out.cluster_start[begin] = true;
     out.cluster_end[i - 1] = true;
@@ -275,12 +287,12 @@ std::vector<ExtractedPoint> find_edges(const LaserScan& scan, const Pose2& senso
   const double beam_step = std::abs(static_cast<double>(scan.angle_increment));
   // The spread of a uniform error over one beam step: the end lies anywhere between two beams.
   const double uniform_stddev_per_step = beam_step / std::sqrt(12.0);
-  // The neighbour beam saw something farther: a return beyond the jump, or open space (a range
-  // above range_max or +inf). NaN or a range below range_min says nothing.
+  // The neighbour beam saw something farther: a return beyond the jump, or open space (REP 117's
+  // no return: +inf or a max-range reading). NaN, zero or too close says nothing.
   const auto neighbour_is_farther = [&](size_t beam, size_t end_index) {
-    const float r = scan.ranges[beam];
-    if (scan.valid_return(beam)) return r >= p.ranges[end_index] + c.edge_min_depth_jump;
-    return r > scan.range_max;
+    const RangeReading reading = scan.reading(beam);
+    if (reading == RangeReading::kHit) return scan.ranges[beam] >= p.ranges[end_index] + c.edge_min_depth_jump;
+    return reading == RangeReading::kNoReturn;
   };
   std::vector<ExtractedPoint> edges;
   for (size_t k = 0; k < lines.size(); ++k) {
@@ -325,7 +337,7 @@ ExtractedFeatures LaserFeatureExtractor::extract(const LaserScan& scan) const {
   const ScanPoints points = scan_points(scan, sensor);
   features.usable_returns = points.points.size();
   if (points.points.size() < 2) return features;
-  const Segmentation segmentation = segment(points, scan.angle_increment, config_);
+  const Segmentation segmentation = segment(scan, points, config_);
   std::vector<Segment> kept;
   fit_lines(points, segmentation.segments, config_, features.lines, kept);
   features.corners = find_corners(features.lines, config_);

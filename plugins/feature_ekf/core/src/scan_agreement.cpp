@@ -37,12 +37,13 @@ std::optional<double> ScanAgreement::agreement(const LaserScan& scan, const Pose
   const size_t step = std::max<size_t>(1, scan.ranges.size() / static_cast<size_t>(std::max(config_.beams, 1)));
   size_t considered = 0, agreeing = 0;
   for (size_t i = 0; i < scan.ranges.size(); i += step) {
-    const double measured = scan.valid_return(i) ? scan.ranges[i] : std::numeric_limits<double>::infinity();
+    // Only a return is evidence: a NaN, a zero, a too-close or a max-range reading (REP 117) says
+    // nothing about the map (real lasers miss dark, shiny and glancing surfaces).
+    if (!scan.valid_return(i)) continue;
+    const double measured = scan.ranges[i];
     const double cast_range = cast(origin, laser.theta + scan.angle(i), scan.range_max);
-    const bool measured_hit = std::isfinite(measured), cast_hit = std::isfinite(cast_range);
-    if (!measured_hit && !cast_hit) continue;
     ++considered;
-    if (measured_hit && cast_hit &&
+    if (std::isfinite(cast_range) &&
         std::abs(measured - cast_range) <= config_.tolerance + config_.tolerance_per_metre * cast_range) {
       ++agreeing;
     }

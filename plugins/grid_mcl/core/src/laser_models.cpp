@@ -26,9 +26,13 @@ PreparedScan prepare_scan(const LaserScan& scan, const LaserModelConfig& config)
     const Eigen::Vector2d direction = (rotation * Eigen::Vector3d(std::cos(a), std::sin(a), 0.0)).head<2>();
     const double horizontal = direction.norm();
     if (horizontal < 1e-6) continue;  // a beam pointing straight up or down
+    // REP 117: NaN, zero and too-close readings say nothing (skipped, as AMCL skips NaN); a
+    // no-return or max-range reading is a max reading (z_max), which only the beam model uses.
+    const RangeReading reading = scan.reading(i);
     const double r = scan.ranges[i];
-    const bool no_return = !std::isfinite(r) || r <= z_min;
-    const double range = no_return ? s.z_max : std::min(r * horizontal, s.z_max);
+    if (reading == RangeReading::kInvalid || reading == RangeReading::kTooClose) continue;
+    if (reading == RangeReading::kHit && r <= z_min) continue;
+    const double range = reading == RangeReading::kNoReturn ? s.z_max : std::min(r * horizontal, s.z_max);
     s.bearing.push_back(std::atan2(direction.y(), direction.x()));
     s.range.push_back(range);
     const bool hit = range < s.z_max;

@@ -54,8 +54,17 @@ struct Imu {
   double acceleration_stddev = -1.0;  // m/s^2, <= 0 unknown
 };
 
-// A 2D scan. Beam i has angle angle_min + i * angle_increment in the sensor frame;
-// a range outside [range_min, range_max] (or non-finite) is "no return".
+// What one range reading says, as REP 117 defines it (ROS drivers send all four).
+enum class RangeReading {
+  kHit,        // range_min <= r < range_max: an obstacle at r
+  kNoReturn,   // +inf, or r >= range_max (a max-range reading): nothing within range_max
+  kTooClose,   // -inf: an obstacle closer than range_min
+  kInvalid,    // NaN, or r < range_min (0 included): an erroneous reading that says nothing
+};
+
+// A 2D scan. Beam i has angle angle_min + i * angle_increment in the sensor frame; reading(i)
+// says what its range means (REP 117). Only hits are returns; the other three never count as
+// disagreement with a map.
 struct LaserScan {
   Header header;
   Eigen::Isometry3d sensor_pose = Eigen::Isometry3d::Identity();  // sensor in base_link
@@ -66,7 +75,8 @@ struct LaserScan {
   std::vector<float> ranges;
   std::vector<float> intensities;  // empty or ranges.size()
 
-  bool valid_return(size_t i) const;
+  RangeReading reading(size_t i) const;
+  bool valid_return(size_t i) const { return reading(i) == RangeReading::kHit; }
   double angle(size_t i) const { return angle_min + static_cast<double>(i) * angle_increment; }
 };
 

@@ -1,9 +1,10 @@
 // How well a scan fits the map at a pose (beyond the paper; the check of feature_ekf's
 // localization state and of its relocalization hypotheses): every k-th beam is cast from the
 // laser, placed by the pose, into the map's wall segments, and the beam agrees when its measured
-// range is within tolerance + tolerance_per_metre * range of the cast one. Beams that neither
-// return nor hit a wall within range_max carry no information and are left out; a return where
-// the map has no wall, or a wall where the laser saw nothing, disagrees.
+// range is within tolerance + tolerance_per_metre * range of the cast one. Only returns count
+// (REP 117: NaN, zero, too-close and max-range readings carry no information and are left out,
+// since real lasers miss dark, shiny and glancing surfaces); a return where the map has no wall
+// within range_max, or far from the map's wall, disagrees.
 #pragma once
 
 #include <Eigen/Core>
