@@ -14,6 +14,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -284,7 +285,7 @@ TEST(Nav2Stack, LocdServesANav2RobotAsAmclDoes) {
   int64_t initial_sent_ns = 0, next_lookup = 0;
   std::optional<int64_t> window_start;
   size_t lookups = 0, failures = 0;
-  double squared_error = 0.0;
+  double squared_error = 0.0, least_lead_s = 1e9;  // how far the newest map -> odom was ahead of now
   std::string first_failure;
   while (auto m = simulation.next()) {
     std::this_thread::sleep_until(start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
@@ -323,6 +324,7 @@ TEST(Nav2Stack, LocdServesANav2RobotAsAmclDoes) {
       }
       continue;
     }
+    least_lead_s = std::min(least_lead_s, (robot.map_odom.newest() - stamp) * 1e-9);
     const Eigen::Isometry3d map_base = *map_odom * *odom_base.at(stamp);
     const locd::Pose2 truth = simulation.truth().at(m->t).pose;
     squared_error += (map_base.translation().head<2>() - Eigen::Vector2d(truth.x, truth.y)).squaredNorm();
@@ -333,7 +335,11 @@ TEST(Nav2Stack, LocdServesANav2RobotAsAmclDoes) {
   ASSERT_TRUE(window_start.has_value()) << "no lookup of map -> base_footprint ever succeeded\n" << locd.process().output();
   EXPECT_GE(lookups, static_cast<size_t>(0.9 * kWindow * 1e9 / kLookupPeriod));
   EXPECT_EQ(failures, 0u) << failures << " of " << lookups << " lookups would extrapolate; first " << first_failure;
-  EXPECT_LT(std::sqrt(squared_error / static_cast<double>(lookups - failures)), 0.2);
+  const double rmse = std::sqrt(squared_error / static_cast<double>(lookups - failures));
+  EXPECT_LT(rmse, 0.2);
+  std::printf("nav2_stack: %zu lookups of map -> base_footprint at now in %.0f s, %zu would extrapolate; newest map -> "
+              "odom at least %.3f s ahead of now; RMSE %.3f m\n",
+              lookups, kWindow, failures, least_lead_s, rmse);
   // Nothing before the initial pose, unless the plugin's global localization converged first.
   if (!(robot.first_tracking_ns > 0 && robot.first_tracking_ns < initial_sent_ns)) {
     EXPECT_EQ(poses_before, 0u);
