@@ -45,9 +45,17 @@ std::unique_ptr<dds_qos_t, QosDeleter> make_qos(QosProfile profile, int depth) {
       break;
     case QosProfile::kState:
     case QosProfile::kOutputState:
-    case QosProfile::kRos2Latched:
       dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, 1);
       dds_qset_durability(qos.get(), DDS_DURABILITY_TRANSIENT_LOCAL);
+      break;
+    case QosProfile::kRos2Latched:
+      dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, depth);
+      dds_qset_durability(qos.get(), DDS_DURABILITY_TRANSIENT_LOCAL);
+      break;
+    case QosProfile::kRos2Rosout:
+      dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, depth);
+      dds_qset_durability(qos.get(), DDS_DURABILITY_TRANSIENT_LOCAL);
+      dds_qset_lifespan(qos.get(), DDS_SECS(10));
       break;
     case QosProfile::kRos2SensorData:
       dds_qset_reliability(qos.get(), DDS_RELIABILITY_BEST_EFFORT, 0);

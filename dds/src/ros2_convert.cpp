@@ -12,6 +12,8 @@ namespace {
 
 constexpr int64_t kNanosecondsPerSecond = 1'000'000'000;
 constexpr double kStandardGravity = 9.80665;  // m/s^2
+constexpr double kUnitQuaternionTolerance = 1e-4;  // nav2_util::validateMsg's epsilon on |q|^2 - 1
+constexpr size_t kMaxLogText = 4095;              // rcl_interfaces/Log.msg in idl/ros2.idl
 
 template <typename Wire>
 Wire zeroed() {
@@ -47,6 +49,11 @@ void to_header(int64_t stamp, const std::string& frame, Header& out) {
 }
 
 locd::Header from_header(const Header& h) { return {stamp_ns(h.stamp), to_string(h.frame_id)}; }
+
+std::string without_leading_slash(std::string frame) {
+  if (!frame.empty() && frame.front() == '/') frame.erase(0, 1);
+  return frame;
+}
 
 // ---------------------------------------------------------------- PointCloud2 fields
 
@@ -162,15 +169,43 @@ Time to_time(int64_t stamp) {
   return {static_cast<int32_t>(sec), static_cast<uint32_t>(nanosec)};
 }
 
-Frames Frames::from(const Ros2Config& config) { return {config.map_frame, config.base_frame, config.sensor_frames}; }
+Frames Frames::from(const Ros2Config& config, const FrameSource* tf) {
+  return {config.map_frame, config.base_frame, config.sensor_frames, tf};
+}
 
-Eigen::Isometry3d Frames::sensor_pose(const std::string& frame) const {
+Eigen::Isometry3d Frames::sensor_pose(const std::string& frame_id, int64_t stamp) const {
+  const std::string frame = without_leading_slash(frame_id);
   if (frame == base_frame) return Eigen::Isometry3d::Identity();
   const auto it = sensor_frames.find(frame);
   if (it != sensor_frames.end()) return it->second;
+  if (sensor_frames.empty() && tf) return tf->pose_in(base_frame, frame, stamp);
   throw InputError("frame '" + frame + "' is neither the base frame '" + base_frame +
                    "' nor in ros2.sensor_frames; add '" + frame + ": [x, y, z, roll, pitch, yaw]' (its pose in " +
-                   base_frame + ") to the robot's ros2.sensor_frames");
+                   base_frame + ") to the robot's ros2.sensor_frames, or leave sensor_frames out to take frames "
+                   "from /tf_static and /tf");
+}
+
+std::vector<StampedTransform> from_ros2(const TFMessage& m) {
+  std::vector<StampedTransform> out;
+  out.reserve(m.transforms._length);
+  for (uint32_t i = 0; i < m.transforms._length; ++i) {
+    const TransformStamped& t = m.transforms._buffer[i];
+    StampedTransform s;
+    s.stamp_ns = t.header.stamp.sec == 0 && t.header.stamp.nanosec == 0 ? 0 : stamp_ns(t.header.stamp);
+    s.parent = without_leading_slash(to_string(t.header.frame_id));
+    s.child = without_leading_slash(to_string(t.child_frame_id));
+    if (s.parent.empty() || s.child.empty()) throw InputError("transform " + std::to_string(i) + ": an empty frame id");
+    const auto& p = t.transform.translation;
+    const auto& r = t.transform.rotation;
+    const geometry_msgs_msg_dds__Pose_ pose{{p.x, p.y, p.z}, {r.x, r.y, r.z, r.w}};
+    try {
+      s.parent_from_child = isometry(pose);
+    } catch (const InputError& e) {
+      throw InputError("transform '" + s.parent + "' -> '" + s.child + "': " + e.what());
+    }
+    out.push_back(std::move(s));
+  }
+  return out;
 }
 
 std::string frame_id(const Header& h) { return to_string(h.frame_id); }
@@ -185,7 +220,7 @@ locd::LaserScan from_ros2(const ros2::LaserScan& m, const Frames& frames, const 
   }
   locd::LaserScan s;
   s.header = from_header(m.header);
-  s.sensor_pose = frames.sensor_pose(s.header.frame_id);
+  s.sensor_pose = frames.sensor_pose(s.header.frame_id, s.header.stamp_ns);
   s.angle_min = m.angle_min;
   s.angle_increment = m.angle_increment;
   s.range_min = m.range_min;
@@ -217,7 +252,7 @@ locd::PointCloud from_ros2(const PointCloud2& m, const Frames& frames, const Lim
   }
   locd::PointCloud c;
   c.header = from_header(m.header);
-  c.sensor_pose = frames.sensor_pose(c.header.frame_id);
+  c.sensor_pose = frames.sensor_pose(c.header.frame_id, c.header.stamp_ns);
   c.points.reserve(n);
   if (intensity.read) c.intensity.reserve(n);
   for (uint32_t row = 0; row < m.height; ++row) {
@@ -286,7 +321,7 @@ locd::Imu from_ros2(const ros2::Imu& m, const Frames& frames) {
   }
   locd::Imu o;
   o.header = from_header(m.header);
-  const Eigen::Isometry3d base_from_imu = frames.sensor_pose(o.header.frame_id);
+  const Eigen::Isometry3d base_from_imu = frames.sensor_pose(o.header.frame_id, o.header.stamp_ns);
   const Eigen::Quaterniond level_from_imu(m.orientation.w, m.orientation.x, m.orientation.y, m.orientation.z);
   if (!level_from_imu.coeffs().allFinite() || level_from_imu.norm() < 1e-6) {
     throw InputError("imu: orientation is not a finite, non-zero quaternion");
@@ -327,10 +362,21 @@ locd::Odometry from_ros2(const ros2::Odometry& m) {
 
 locd::PoseEstimate from_ros2(const PoseWithCovarianceStamped& m, const Frames& frames) {
   locd::PoseEstimate p;
-  p.header = from_header(m.header);
+  const bool unstamped = m.header.stamp.sec == 0 && m.header.stamp.nanosec == 0;
+  p.header.stamp_ns = unstamped ? 0 : stamp_ns(m.header.stamp);
+  p.header.frame_id = without_leading_slash(to_string(m.header.frame_id));
+  if (p.header.frame_id.empty()) {
+    throw InputError("initial pose: header.frame_id is empty; expected the map frame '" + frames.map_frame + "'");
+  }
   if (p.header.frame_id != frames.map_frame) {
     throw InputError("initial pose: frame '" + p.header.frame_id + "' is not the map frame '" + frames.map_frame +
-                     "' (ros2.map_frame)");
+                     "' (ros2.map_frame); an initial pose must be in the map frame, as AMCL's");
+  }
+  const auto& q = m.pose.pose.orientation;
+  const double norm2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
+  if (std::isfinite(norm2) && std::abs(norm2 - 1.0) >= kUnitQuaternionTolerance) {
+    throw InputError("initial pose: orientation is not a unit quaternion (|q|^2 = " + std::to_string(norm2) +
+                     "); AMCL refuses it too");
   }
   try {
     p.pose = isometry(m.pose.pose);
@@ -438,6 +484,52 @@ void write(const Writer<PoseArray>& w, int64_t stamp, const std::vector<locd::Pa
   auto s = zeroed<PoseArray>();
   to_header(stamp, frame, s.header);
   borrow(s.poses, poses.data(), poses.size());
+  w.write(s);
+}
+
+void write(const Writer<ParticleCloud>& w, int64_t stamp, const std::vector<locd::Particle2D>& particles,
+           const std::string& frame) {
+  std::vector<Particle> out(particles.size());
+  for (size_t i = 0; i < particles.size(); ++i) {
+    const auto& p = particles[i];
+    out[i].pose.position = {p.x, p.y, 0.0};
+    out[i].pose.orientation = {0.0, 0.0, std::sin(p.yaw / 2), std::cos(p.yaw / 2)};
+    out[i].weight = p.weight;
+  }
+  auto s = zeroed<ParticleCloud>();
+  to_header(stamp, frame, s.header);
+  borrow(s.particles, out.data(), out.size());
+  w.write(s);
+}
+
+void write(const Writer<Log>& w, int64_t stamp, uint8_t level, const std::string& name, const std::string& text) {
+  auto s = zeroed<Log>();
+  s.stamp = to_time(stamp);
+  s.level = level;
+  copy_string(s.name, name.substr(0, sizeof(s.name) - 1));
+  copy_string(s.msg, text.substr(0, kMaxLogText));
+  w.write(s);
+}
+
+void write(const Writer<ParticipantEntitiesInfo>& w, const GidBytes& participant, const std::vector<NodeEntities>& nodes) {
+  auto gids = [](const std::vector<GidBytes>& from, std::vector<Gid>& to) {
+    to.resize(from.size());
+    for (size_t i = 0; i < from.size(); ++i) std::copy(from[i].begin(), from[i].end(), to[i].data);
+  };
+  std::vector<std::vector<Gid>> readers(nodes.size()), writers(nodes.size());
+  std::vector<NodeEntitiesInfo> infos(nodes.size());
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    std::memset(&infos[i], 0, sizeof(infos[i]));
+    copy_string(infos[i].node_namespace, nodes[i].node_namespace);
+    copy_string(infos[i].node_name, nodes[i].node_name);
+    gids(nodes[i].readers, readers[i]);
+    gids(nodes[i].writers, writers[i]);
+    borrow(infos[i].reader_gid_seq, readers[i].data(), readers[i].size());
+    borrow(infos[i].writer_gid_seq, writers[i].data(), writers[i].size());
+  }
+  auto s = zeroed<ParticipantEntitiesInfo>();
+  std::copy(participant.begin(), participant.end(), s.gid.data);
+  borrow(s.node_entities_info_seq, infos.data(), infos.size());
   w.write(s);
 }
 

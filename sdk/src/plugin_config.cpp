@@ -15,7 +15,48 @@ void check_plugin_name(const std::string& name, const std::string& what) {
   }
 }
 
+namespace {
+
+// A Nav2 params file: `amcl.ros__parameters` are grid_mcl's parameters (AMCL's names) with AMCL's
+// ROS keys moved to the ros2 section (parse_nav2_amcl); the map is map_server's yaml_filename
+// unless the amcl section names one; `ros2` and `server_group` may stand beside them. The sections
+// of other Nav2 nodes (`<node>: {ros__parameters: ...}`) configure those nodes, not locd: skipped.
+PluginConfig split_nav2_params(const Params& document, const std::string& source_name) {
+  for (const auto& item : document.node()) {
+    const std::string key = item.first.as<std::string>();
+    if (key == "amcl" || key == "map_server" || key == "ros2" || key == "server_group") continue;
+    if (item.second.IsMap() && item.second["ros__parameters"]) continue;
+    const YAML::Mark m = item.first.Mark();
+    throw ConfigError(source_name + ": key '" + key + "' (line " + std::to_string(m.line + 1) +
+                      ") in a Nav2 params file is neither amcl, map_server, ros2, server_group nor another Nav2 "
+                      "node's section (<node>: {ros__parameters: ...})");
+  }
+  const Params amcl = document.child("amcl");
+  amcl.expect_only({"ros__parameters"});
+  if (!amcl.node()["ros__parameters"] || !amcl.node()["ros__parameters"].IsMap()) {
+    document.fail("amcl", "has no ros__parameters map; expected amcl: {ros__parameters: {alpha1: 0.2, ...}} as in "
+                          "Nav2's nav2_params.yaml");
+  }
+  const Params params(amcl.node()["ros__parameters"], "amcl.ros__parameters");
+  const Params section = document.child("ros2");
+  const Ros2Config ros2 = parse_nav2_amcl(params, document.has("ros2") ? &section : nullptr);
+  if (!params.has("map")) {
+    const Params map_server = document.child("map_server").child("ros__parameters");
+    if (!map_server.has("yaml_filename")) {
+      throw ConfigError(source_name + ": no map: give map_server.ros__parameters.yaml_filename (the map YAML map_server "
+                                      "loads, in the server's map directories) or amcl.ros__parameters.map");
+    }
+    YAML::Node(params.node())["map"] = map_server.node()["yaml_filename"];
+  }
+  const std::string group = document.text("server_group", "");
+  if (group.size() > 64) document.fail("server_group", "is longer than 64 characters");
+  return {"grid_mcl", params, ros2, group};
+}
+
+}  // namespace
+
 PluginConfig split_plugin_config(const Params& document, const std::string& source_name) {
+  if (document.has("amcl")) return split_nav2_params(document, source_name);
   document.expect_only({"plugin", "params", "ros2", "server_group"});
   if (!document.has("plugin")) {
     throw ConfigError(source_name + ": key 'plugin' is missing; expected 'plugin: <name>' and 'params:'");

@@ -599,6 +599,10 @@ void Server::on_bad_input(const std::string& robot_id, const std::string& topic,
   report_no_session(robot_id, topic, " (it was malformed too: " + error + ")");
 }
 
+void Server::on_output_problem(const std::string& robot_id, const std::string& problem) {
+  if (auto session = find(robot_id)) session->report_output_problem(problem);
+}
+
 void Server::on_initial_pose(const std::string& robot_id, const PoseEstimate& pose) {
   if (auto session = find(robot_id)) {
     session->set_pose(pose);

@@ -166,6 +166,15 @@ void Session::reject_input(const std::string& error) {
   publish_status_later();
 }
 
+void Session::report_output_problem(const std::string& problem) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    last_error_ = problem;
+  }
+  log(LogLevel::kWarning, problem);
+  publish_status_later();
+}
+
 void Session::publish_status_later() {
   if (status_pending_.exchange(true)) return;
   auto self = shared_from_this();

@@ -9,31 +9,15 @@
 // default partition, as rmw_fastrtps puts them.
 #include <gtest/gtest.h>
 
-#include <fastdds/dds/domain/DomainParticipant.hpp>
-#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
-#include <fastdds/dds/publisher/DataWriter.hpp>
-#include <fastdds/dds/publisher/Publisher.hpp>
-#include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
-#include <fastdds/dds/publisher/qos/PublisherQos.hpp>
-#include <fastdds/dds/subscriber/DataReader.hpp>
-#include <fastdds/dds/subscriber/SampleInfo.hpp>
-#include <fastdds/dds/subscriber/Subscriber.hpp>
-#include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
-#include <fastdds/dds/subscriber/qos/SubscriberQos.hpp>
-#include <fastdds/dds/topic/TypeSupport.hpp>
-#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
-#include <fastrtps/utils/IPLocator.h>
-
-#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
 #include <memory>
 #include <thread>
 
+#include "fastdds_participant.hpp"
 #include "locd.h"             // fastddsgen's, from idl/locd.idl
 #include "locdPubSubTypes.h"
-#include "ros2.h"             // fastddsgen's, from idl/ros2.idl
 #include "ros2PubSubTypes.h"
 #include "locd/sim/scenario.hpp"
 #include "locd/sim/simulation.hpp"
@@ -41,113 +25,18 @@
 #include "test_server.hpp"
 
 using namespace std::chrono_literals;
-namespace fdds = eprosima::fastdds::dds;
 namespace wire = locd::msg;
 namespace geometry = geometry_msgs::msg::dds_;
 
 namespace {
 
 using locd::test::eventually;
-
-// One Fast DDS participant on the test's domain; its entities go with it.
-class FastDds {
- public:
-  explicit FastDds(int domain) {
-    fdds::DomainParticipantQos qos;
-    qos.name("locd_fastdds_test");
-    auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
-    udp->interfaceWhiteList.push_back("127.0.0.1");
-    qos.transport().user_transports.push_back(udp);
-    qos.transport().use_builtin_transports = false;
-    eprosima::fastrtps::rtps::Locator_t peer;
-    eprosima::fastrtps::rtps::IPLocator::setIPv4(peer, "127.0.0.1");
-    qos.wire_protocol().builtin.initialPeersList.push_back(peer);
-    participant_ = fdds::DomainParticipantFactory::get_instance()->create_participant(domain, qos);
-  }
-  ~FastDds() {
-    if (!participant_) return;
-    participant_->delete_contained_entities();
-    fdds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
-  }
-  bool ok() const { return participant_ != nullptr; }
-
-  // A writer (reader) of `PubSubType` on `topic` in `partition` ("" = the default partition).
-  template <typename PubSubType>
-  fdds::DataWriter* writer(const std::string& topic, const std::string& partition, bool reliable, bool transient_local,
-                           int depth) {
-    fdds::PublisherQos pq;
-    if (!partition.empty()) pq.partition().push_back(partition.c_str());
-    fdds::Publisher* publisher = participant_->create_publisher(pq);
-    fdds::DataWriterQos q = fdds::DATAWRITER_QOS_DEFAULT;
-    q.reliability().kind = reliable ? fdds::RELIABLE_RELIABILITY_QOS : fdds::BEST_EFFORT_RELIABILITY_QOS;
-    q.durability().kind = transient_local ? fdds::TRANSIENT_LOCAL_DURABILITY_QOS : fdds::VOLATILE_DURABILITY_QOS;
-    q.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-    q.history().depth = depth;
-    q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_RESERVE_MEMORY_MODE;
-    return publisher->create_datawriter(topic_of<PubSubType>(topic), q);
-  }
-  // `exclusive`: exclusive ownership, as locd's per-robot outputs (pose, maps, diagnostics) need.
-  template <typename PubSubType>
-  fdds::DataReader* reader(const std::string& topic, const std::string& partition, bool transient_local, int depth,
-                           bool exclusive = false) {
-    fdds::SubscriberQos sq;
-    if (!partition.empty()) sq.partition().push_back(partition.c_str());
-    fdds::Subscriber* subscriber = participant_->create_subscriber(sq);
-    fdds::DataReaderQos q = fdds::DATAREADER_QOS_DEFAULT;
-    q.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
-    q.durability().kind = transient_local ? fdds::TRANSIENT_LOCAL_DURABILITY_QOS : fdds::VOLATILE_DURABILITY_QOS;
-    q.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-    q.history().depth = depth;
-    if (exclusive) q.ownership().kind = fdds::EXCLUSIVE_OWNERSHIP_QOS;
-    q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_RESERVE_MEMORY_MODE;
-    return subscriber->create_datareader(topic_of<PubSubType>(topic), q);
-  }
-
- private:
-  template <typename PubSubType>
-  fdds::Topic* topic_of(const std::string& name) {
-    fdds::TypeSupport type(new PubSubType());
-    type.register_type(participant_);
-    if (auto* existing = participant_->find_topic(name, eprosima::fastrtps::Duration_t(0, 0))) return existing;
-    return participant_->create_topic(name, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
-  }
-  fdds::DomainParticipant* participant_ = nullptr;
-};
-
-bool matched(fdds::DataWriter* w) {
-  fdds::PublicationMatchedStatus s;
-  w->get_publication_matched_status(s);
-  return s.current_count > 0;
-}
-
-// Every sample the reader has now, to `visit`.
-template <typename T, typename Visit>
-void take_all(fdds::DataReader* reader, Visit visit) {
-  T sample;
-  fdds::SampleInfo info;
-  while (reader->take_next_sample(&sample, &info) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
-    if (info.valid_data) visit(sample);
-  }
-}
-
-// A pose into either IDL's pose type (locd's Pose3D, ROS 2's Pose_): the same members.
-template <typename FastPose>
-void to_fast(const Eigen::Isometry3d& T, FastPose& out) {
-  const Eigen::Quaterniond q(T.linear());
-  out.position().x(T.translation().x());
-  out.position().y(T.translation().y());
-  out.position().z(T.translation().z());
-  out.orientation().x(q.x());
-  out.orientation().y(q.y());
-  out.orientation().z(q.z());
-  out.orientation().w(q.w());
-}
-
-void to_fast(int64_t stamp_ns, const std::string& frame, std_msgs::msg::dds_::Header_& out) {
-  out.stamp().sec(static_cast<int32_t>(stamp_ns / 1'000'000'000));
-  out.stamp().nanosec(static_cast<uint32_t>(stamp_ns % 1'000'000'000));
-  out.frame_id() = frame;
-}
+using locd::test::FastDds;
+using locd::test::FastQos;
+using locd::test::matched;
+using locd::test::take_all;
+using locd::test::to_fast;
+using locd::test::wall_ns;
 
 // The corridor robot driven for `duration_s` of simulated time at `rate` times real time; every
 // measurement to `publish` stamped from `origin_ns`; returns the truth at each scan's stamp.
@@ -185,11 +74,6 @@ locd::sim::Scenario corridor() {
   return locd::sim::load_scenario(locd::test::source_dir() + "/config/scenarios/corridor.yaml");
 }
 
-int64_t wall_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 }  // namespace
 
 TEST(FastDds, RequestsASessionDrivesARobotAndReadsPoseStatusAndServerInfo) {
@@ -198,13 +82,13 @@ TEST(FastDds, RequestsASessionDrivesARobotAndReadsPoseStatusAndServerInfo) {
   locd::test::TestServer locd("fastdds", kDomain);
   FastDds dds(kDomain);
   ASSERT_TRUE(dds.ok());
-  auto* info = dds.reader<wire::ServerInfoPubSubType>("locd/server_info", "", true, 8);
-  auto* requests = dds.writer<wire::SessionRequestPubSubType>("locd/session_request", partition, true, true, 1);
-  auto* initial_poses = dds.writer<wire::InitialPosePubSubType>("locd/initial_pose", partition, true, true, 1);
-  auto* odometry = dds.writer<wire::OdometryPubSubType>("locd/odometry", partition, true, false, 8);
-  auto* scans = dds.writer<wire::LaserScanPubSubType>("locd/scan", partition, true, false, 8);
-  auto* statuses = dds.reader<wire::SessionStatusPubSubType>("locd/session_status", partition, true, 8);
-  auto* poses = dds.reader<wire::PoseEstimatePubSubType>("locd/pose", partition, false, 1000, true);
+  auto* info = dds.reader<wire::ServerInfoPubSubType>("locd/server_info", "", FastQos{true, true, 8});
+  auto* requests = dds.writer<wire::SessionRequestPubSubType>("locd/session_request", partition, FastQos{true, true, 1});
+  auto* initial_poses = dds.writer<wire::InitialPosePubSubType>("locd/initial_pose", partition, FastQos{true, true, 1});
+  auto* odometry = dds.writer<wire::OdometryPubSubType>("locd/odometry", partition, FastQos{true, false, 8});
+  auto* scans = dds.writer<wire::LaserScanPubSubType>("locd/scan", partition, FastQos{true, false, 8});
+  auto* statuses = dds.reader<wire::SessionStatusPubSubType>("locd/session_status", partition, FastQos{true, true, 8});
+  auto* poses = dds.reader<wire::PoseEstimatePubSubType>("locd/pose", partition, FastQos{true, false, 1000, true});
   ASSERT_TRUE(info && requests && initial_poses && odometry && scans && statuses && poses);
 
   // Server info, in the default partition.
@@ -322,13 +206,13 @@ TEST(FastDds, Ros2RobotOnFastDdsReadsItsPoseWithCovarianceStamped) {
   locd::test::TestServer locd("fastdds_ros2", kDomain);
   FastDds dds(kDomain);
   ASSERT_TRUE(dds.ok());
-  auto* requests = dds.writer<wire::SessionRequestPubSubType>("locd/session_request", partition, true, true, 1);
-  auto* statuses = dds.reader<wire::SessionStatusPubSubType>("locd/session_status", partition, true, 8);
-  auto* scans = dds.writer<sensor_msgs::msg::dds_::LaserScan_PubSubType>("rt/fastros/scan", "", false, false, 5);
-  auto* odometry = dds.writer<nav_msgs::msg::dds_::Odometry_PubSubType>("rt/fastros/odom", "", false, false, 5);
+  auto* requests = dds.writer<wire::SessionRequestPubSubType>("locd/session_request", partition, FastQos{true, true, 1});
+  auto* statuses = dds.reader<wire::SessionStatusPubSubType>("locd/session_status", partition, FastQos{true, true, 8});
+  auto* scans = dds.writer<sensor_msgs::msg::dds_::LaserScan_PubSubType>("rt/fastros/scan", "", FastQos{false, false, 5});
+  auto* odometry = dds.writer<nav_msgs::msg::dds_::Odometry_PubSubType>("rt/fastros/odom", "", FastQos{false, false, 5});
   auto* initial_poses =
-      dds.writer<geometry::PoseWithCovarianceStamped_PubSubType>("rt/fastros/initialpose", "", true, false, 10);
-  auto* poses = dds.reader<geometry::PoseWithCovarianceStamped_PubSubType>("rt/fastros/amcl_pose", "", true, 1000);
+      dds.writer<geometry::PoseWithCovarianceStamped_PubSubType>("rt/fastros/initialpose", "", FastQos{true, false, 10});
+  auto* poses = dds.reader<geometry::PoseWithCovarianceStamped_PubSubType>("rt/fastros/amcl_pose", "", FastQos{true, true, 1000});
   ASSERT_TRUE(requests && statuses && scans && odometry && initial_poses && poses);
   ASSERT_TRUE(eventually([&] { return matched(requests); })) << locd.process().output();
 

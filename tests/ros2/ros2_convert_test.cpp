@@ -308,6 +308,27 @@ TEST(Ros2Image, BadImagesAreRefusedByName) {
   EXPECT_NE(error_of<InputError>([&] { ros2::from_ros2(m, small); }).find("max_image_pixels = 3"), std::string::npos);
 }
 
+TEST(Ros2LaserScan, Rep117ReadingsReachThePluginUnchanged) {
+  // REP 117: NaN (an invalid reading), +inf (no return within range), -inf (an object closer than
+  // range_min), and finite ranges outside [range_min, range_max]: each means something, so the
+  // ROS 2 path hands every one over bit for bit and the plugins' beam classification decides.
+  auto m = zeroed<ros2::LaserScan>();
+  m.header.stamp = {6, 0};
+  std::strcpy(m.header.frame_id, "lidar");
+  m.angle_min = -1.0f;
+  m.angle_increment = 0.25f;
+  m.range_min = 0.1f;
+  m.range_max = 10.0f;
+  const float inf = std::numeric_limits<float>::infinity();
+  std::vector<float> ranges = {2.0f, kNaN, inf, -inf, 0.05f, 10.0f, 12.0f, 0.0f, -1.0f};
+  borrow(m.ranges, ranges.data(), ranges.size());
+  const LaserScan s = ros2::from_ros2(m, frames(), Limits{});
+  ASSERT_EQ(s.ranges.size(), ranges.size());
+  EXPECT_EQ(std::memcmp(s.ranges.data(), ranges.data(), ranges.size() * sizeof(float)), 0);
+  EXPECT_FLOAT_EQ(s.range_min, 0.1f);
+  EXPECT_FLOAT_EQ(s.range_max, 10.0f);
+}
+
 TEST(Ros2LaserScan, ConvertsAndRefusesMismatchedIntensities) {
   auto m = zeroed<ros2::LaserScan>();
   m.header.stamp = {5, 250};
@@ -396,6 +417,32 @@ TEST(Ros2InitialPose, OnlyInTheMapFrame) {
             std::string::npos);
 }
 
+TEST(Ros2InitialPose, AsAmclTakesIt) {
+  // What `ros2 topic pub /initialpose ...` sends: no stamp, frame "/map"; AMCL accepts it (the
+  // bridge then stamps it with the robot's newest stamp, tf2's "latest").
+  auto m = zeroed<ros2::PoseWithCovarianceStamped>();
+  std::strcpy(m.header.frame_id, "/map");
+  m.pose.pose.position = {1, 2, 0};
+  m.pose.pose.orientation = {0, 0, std::sin(0.2), std::cos(0.2)};
+  const PoseEstimate p = ros2::from_ros2(m, frames());
+  EXPECT_EQ(p.header.stamp_ns, 0);
+  EXPECT_EQ(p.header.frame_id, "map");
+  EXPECT_NEAR(Eigen::AngleAxisd(p.pose.linear()).angle(), 0.4, 1e-12);
+  // What AMCL (nav2_util::validateMsg) refuses: no frame, a quaternion that is not a unit one,
+  // a covariance with a NaN.
+  std::strcpy(m.header.frame_id, "");
+  EXPECT_NE(error_of<InputError>([&] { ros2::from_ros2(m, frames()); }).find("header.frame_id is empty"),
+            std::string::npos);
+  std::strcpy(m.header.frame_id, "map");
+  m.pose.pose.orientation = {0, 0, 0, 0.9};
+  EXPECT_NE(error_of<InputError>([&] { ros2::from_ros2(m, frames()); }).find("not a unit quaternion (|q|^2 = 0.81"),
+            std::string::npos);
+  m.pose.pose.orientation = {0, 0, 0, 1.00004};  // |q|^2 - 1 < 1e-4: accepted
+  EXPECT_NO_THROW(ros2::from_ros2(m, frames()));
+  m.pose.covariance[35] = std::nan("");
+  EXPECT_NE(error_of<InputError>([&] { ros2::from_ros2(m, frames()); }).find("covariance has a NaN"), std::string::npos);
+}
+
 // The writers, read back through a reader in the same process.
 class Ros2Writers : public ::testing::Test {
  protected:
@@ -481,4 +528,66 @@ TEST_F(Ros2Writers, PoseArrayAndTransform) {
                                 EXPECT_EQ(ros2::stamp_ns(t.header.stamp), 4'000'000'001);
                                 EXPECT_EQ(t.transform.translation.y, -0.25);
                               });
+}
+
+TEST_F(Ros2Writers, ParticleCloudCarriesPosesAndWeights) {
+  std::vector<Particle2D> particles = {{1, 2, 0.5, 0.3}, {-1, 0, -3.0, 0.7}};
+  round_trip<ros2::ParticleCloud>([&](const auto& w) { ros2::write(w, 3'000'000'000, particles, "map"); },
+                                  [&](const ros2::ParticleCloud& m) {
+                                    EXPECT_EQ(ros2::frame_id(m.header), "map");
+                                    ASSERT_EQ(m.particles._length, 2u);
+                                    const auto& q = m.particles._buffer[1].pose.orientation;
+                                    EXPECT_NEAR(2 * std::atan2(q.z, q.w), -3.0, 1e-12);
+                                    EXPECT_EQ(m.particles._buffer[0].pose.position.y, 2);
+                                    EXPECT_EQ(m.particles._buffer[0].weight, 0.3);
+                                    EXPECT_EQ(m.particles._buffer[1].weight, 0.7);
+                                  });
+}
+
+TEST_F(Ros2Writers, RosoutLineAndDiscoveryInfo) {
+  const std::string long_text(5000, 'x');
+  round_trip<ros2::Log>([&](const auto& w) { ros2::write(w, 5'000'000'000, 30, "robot1.locd", long_text); },
+                        [&](const ros2::Log& m) {
+                          EXPECT_EQ(m.level, 30);
+                          EXPECT_EQ(dds::to_string(m.name), "robot1.locd");
+                          EXPECT_EQ(dds::to_string(m.msg), long_text.substr(0, 4095));
+                          EXPECT_EQ(ros2::stamp_ns(m.stamp), 5'000'000'000);
+                        });
+  ros2::GidBytes participant{}, reader{}, writer{};
+  for (uint8_t i = 0; i < 16; ++i) participant[i] = i, reader[i] = static_cast<uint8_t>(100 + i), writer[i] = 200;
+  const std::vector<ros2::NodeEntities> nodes = {{"/robot1", "locd", {reader}, {writer, participant}},
+                                                 {"/", "locd_b", {}, {}}};
+  round_trip<ros2::ParticipantEntitiesInfo>([&](const auto& w) { ros2::write(w, participant, nodes); },
+                                            [&](const ros2::ParticipantEntitiesInfo& m) {
+                                              EXPECT_EQ(m.gid.data[15], 15);
+                                              ASSERT_EQ(m.node_entities_info_seq._length, 2u);
+                                              const auto& a = m.node_entities_info_seq._buffer[0];
+                                              EXPECT_EQ(dds::to_string(a.node_namespace), "/robot1");
+                                              EXPECT_EQ(dds::to_string(a.node_name), "locd");
+                                              ASSERT_EQ(a.reader_gid_seq._length, 1u);
+                                              EXPECT_EQ(a.reader_gid_seq._buffer[0].data[3], 103);
+                                              ASSERT_EQ(a.writer_gid_seq._length, 2u);
+                                              EXPECT_EQ(a.writer_gid_seq._buffer[1].data[7], 7);
+                                              EXPECT_EQ(m.node_entities_info_seq._buffer[1].writer_gid_seq._length, 0u);
+                                            });
+}
+
+TEST(Ros2Transforms, ReadFromATfMessage) {
+  auto t = zeroed<ros2::TransformStamped>();
+  t.header.stamp = {0, 0};  // a static broadcaster may leave it unstamped
+  std::strcpy(t.header.frame_id, "/base_link");
+  std::strcpy(t.child_frame_id, "laser");
+  t.transform.translation = {0.2, 0, 0.3};
+  t.transform.rotation = {0, 0, std::sin(0.5), std::cos(0.5)};
+  auto m = zeroed<ros2::TFMessage>();
+  borrow(m.transforms, &t, 1);
+  const auto transforms = ros2::from_ros2(m);
+  ASSERT_EQ(transforms.size(), 1u);
+  EXPECT_EQ(transforms[0].parent, "base_link");
+  EXPECT_EQ(transforms[0].child, "laser");
+  EXPECT_EQ(transforms[0].stamp_ns, 0);
+  EXPECT_TRUE(transforms[0].parent_from_child.translation().isApprox(Eigen::Vector3d(0.2, 0, 0.3)));
+  t.transform.rotation = {0, 0, 0, 0};
+  EXPECT_NE(error_of<InputError>([&] { ros2::from_ros2(m); }).find("transform 'base_link' -> 'laser'"),
+            std::string::npos);
 }

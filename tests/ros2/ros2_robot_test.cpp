@@ -1,6 +1,6 @@
 // A ROS 2 robot against the real locd over real Cyclone DDS on loopback: plain DDS with ROS 2's
 // type names, topic names and QoS (sensors best effort, as rclcpp's SensorDataQoS), no locd code
-// on the robot. Domains 140-142.
+// on the robot. Domains 140-142, 218, 219.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -10,9 +10,11 @@
 #include <map>
 #include <mutex>
 #include <thread>
+#include <vector>
 
 #include "locd/client/client.hpp"
 #include "locd/dds/ros2_convert.hpp"
+#include "locd/dds/topics.hpp"
 #include "locd/sim/ros2_robot.hpp"
 #include "locd/sim/scenario.hpp"
 #include "locd/sim/simulation.hpp"
@@ -74,7 +76,8 @@ TEST(Ros2Robot, LocalizedByFeatureEkfFromItsLaserScanAndOdometryAlone) {
       },
       [&](int64_t stamp, const std::string& parent, const std::string& child, const Eigen::Isometry3d& T) {
         std::lock_guard<std::mutex> lock(mutex);
-        if (parent == "map" && child == "odom") map_from_odom[stamp] = T;
+        // AMCL's transform_tolerance (1.0 s): stamped a second after the pose.
+        if (parent == "map" && child == "odom") map_from_odom[stamp - 1'000'000'000] = T;
       });
   ASSERT_TRUE(eventually([&] { return robot.matched(); })) << locd->process().output();
 
@@ -309,4 +312,143 @@ TEST(Ros2Robot, TopicsComeWithTheSessionAndGoWithIt) {
   EXPECT_FALSE(bad->request_ok);
   EXPECT_NE(bad->message.find("parameter 'ros2.topics.scan'"), std::string::npos) << bad->message;
   EXPECT_TRUE(locd.process().running());
+}
+
+TEST(Ros2Robot, MapToOdomWaitsForOdometryAndIsWithheldWhenItStops) {
+  // AMCL composes map -> odom with the odometry at the scan's stamp, never with an older one.
+  // The robot's odometry stops after 4 s while its scans go on: poses keep coming, map -> odom
+  // does not, and the status says why.
+  constexpr int kDomain = 219;
+  auto locd = server_with_boot_session("ros2_odometry_timeout", kDomain, "agebot", corridor_robot_config("/agebot"));
+  test::RobotSide watcher(kDomain, "agebot", locd->process());
+  std::mutex mutex;
+  std::map<int64_t, PoseEstimate> poses;
+  std::vector<int64_t> transform_stamps;
+  dds::Participant participant(kDomain);
+  sim::Ros2Robot robot(
+      participant, {"/agebot"},
+      [&](const PoseEstimate& p) {
+        std::lock_guard<std::mutex> lock(mutex);
+        poses[p.header.stamp_ns] = p;
+      },
+      [&](int64_t stamp, const std::string& parent, const std::string& child, const Eigen::Isometry3d&) {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (parent == "map" && child == "odom") transform_stamps.push_back(stamp);
+      });
+  ASSERT_TRUE(eventually([&] { return robot.matched(); })) << locd->process().output();
+
+  const sim::Scenario scenario = corridor();
+  sim::Simulation simulation(scenario, scenario.seed, 8.0, 0);
+  const int64_t origin = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                             std::chrono::system_clock::now().time_since_epoch()).count();
+  PoseEstimate initial = simulation.initial_pose();
+  initial.header.stamp_ns = origin;
+  robot.publish_initial_pose(initial);
+  ASSERT_TRUE(watcher.wait_initial_pose(origin));
+  constexpr double kOdometryStops = 4.0, kRate = 2.0;
+  int64_t last_odometry = 0, last_scan = 0;
+  const auto start = std::chrono::steady_clock::now();
+  while (auto m = simulation.next()) {
+    std::this_thread::sleep_until(start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                              std::chrono::duration<double>(m->t / kRate)));
+    const int64_t stamp = origin + static_cast<int64_t>(std::llround(m->t * 1e9));
+    std::visit([&](auto& v) { v.header.stamp_ns = stamp; }, m->measurement);
+    if (std::holds_alternative<Odometry>(m->measurement)) {
+      if (m->t > kOdometryStops) continue;
+      last_odometry = stamp;
+    } else {
+      last_scan = stamp;
+    }
+    robot.publish(m->measurement);
+  }
+  ASSERT_TRUE(eventually([&] {
+    std::lock_guard<std::mutex> lock(mutex);
+    return poses.count(last_scan) > 0;
+  })) << watcher.status_now().last_error << "\n" << locd->process().output();
+  const std::string expected = "map -> odom not published: the newest odometry on /agebot/odom is ";
+  EXPECT_TRUE(eventually([&] { return watcher.status_now().last_error.find(expected) != std::string::npos; }))
+      << watcher.status_now().last_error;
+  EXPECT_NE(watcher.status_now().last_error.find("older than the pose (ros2.odometry_timeout = 1.000 s)"),
+            std::string::npos) << watcher.status_now().last_error;
+
+  std::lock_guard<std::mutex> lock(mutex);
+  // Poses for the scans after the odometry stopped, but no map -> odom beyond the last odometry.
+  EXPECT_GT(poses.rbegin()->first, last_odometry + 2'000'000'000);
+  ASSERT_FALSE(transform_stamps.empty());
+  for (const int64_t stamp : transform_stamps) {
+    EXPECT_LE(stamp - 1'000'000'000, last_odometry) << "a map -> odom computed with odometry older than its pose";
+  }
+  EXPECT_TRUE(locd->process().running());
+}
+
+TEST(Ros2Robot, Rep117ReadingsDoNotMakeFeatureEkfFlap) {
+  // A real laser driver's scan (REP 117): every 7th beam NaN (invalid), every 11th +inf (no return
+  // within range), every 13th -inf (closer than range_min), every 17th below range_min. Through
+  // the ROS 2 path they reach feature_ekf unchanged; none of them is a disagreement with the map:
+  // the robot stays localized and accurate (issue 24 found RMSE 0.68 m with lost/tracking flapping).
+  constexpr int kDomain = 218;
+  auto locd = server_with_boot_session("ros2_rep117", kDomain, "repbot", corridor_robot_config("/repbot"));
+  test::RobotSide watcher(kDomain, "repbot", locd->process());
+  std::mutex mutex;
+  std::map<int64_t, PoseEstimate> poses;
+  std::vector<uint32_t> states;  // the localization state of every status, in order
+  dds::Reader<locd_msg_SessionStatus> statuses(
+      watcher.participant(), topics::kSessionStatus, dds::QosProfile::kState,
+      [&](const locd_msg_SessionStatus& m) {
+        std::lock_guard<std::mutex> lock(mutex);
+        states.push_back(static_cast<uint32_t>(m.localization));
+      },
+      8, {topics::robot_partition("repbot")});
+  dds::Participant participant(kDomain);
+  sim::Ros2Robot robot(participant, {"/repbot"}, [&](const PoseEstimate& p) {
+    std::lock_guard<std::mutex> lock(mutex);
+    poses[p.header.stamp_ns] = p;
+  });
+  ASSERT_TRUE(eventually([&] { return robot.matched(); })) << locd->process().output();
+
+  const sim::Scenario scenario = corridor();
+  sim::Simulation simulation(scenario, scenario.seed, 12.0, 0);
+  const int64_t origin = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                             std::chrono::system_clock::now().time_since_epoch()).count();
+  PoseEstimate initial = simulation.initial_pose();
+  initial.header.stamp_ns = origin;
+  robot.publish_initial_pose(initial);
+  ASSERT_TRUE(watcher.wait_initial_pose(origin));
+  const float inf = std::numeric_limits<float>::infinity();
+  std::map<int64_t, Eigen::Vector2d> truth;
+  const auto start = std::chrono::steady_clock::now();
+  while (auto m = simulation.next()) {
+    std::this_thread::sleep_until(start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                              std::chrono::duration<double>(m->t / 3.0)));
+    const int64_t stamp = origin + static_cast<int64_t>(std::llround(m->t * 1e9));
+    std::visit([&](auto& v) { v.header.stamp_ns = stamp; }, m->measurement);
+    if (auto* scan = std::get_if<LaserScan>(&m->measurement)) {
+      for (size_t i = 0; i < scan->ranges.size(); ++i) {
+        if (i % 7 == 3) scan->ranges[i] = std::numeric_limits<float>::quiet_NaN();
+        else if (i % 11 == 5) scan->ranges[i] = inf;
+        else if (i % 13 == 6) scan->ranges[i] = -inf;
+        else if (i % 17 == 8) scan->ranges[i] = 0.5f * scan->range_min;
+      }
+      const auto pose = simulation.truth().at(m->t).pose;
+      truth[stamp] = Eigen::Vector2d(pose.x, pose.y);
+    }
+    robot.publish(m->measurement);
+  }
+  ASSERT_TRUE(eventually([&] {
+    std::lock_guard<std::mutex> lock(mutex);
+    return poses.count(truth.rbegin()->first) > 0;
+  })) << watcher.status_now().last_error << "\n" << locd->process().output();
+
+  std::lock_guard<std::mutex> lock(mutex);
+  double sum_squared = 0.0;
+  for (const auto& [stamp, pose] : poses) {
+    const auto t = truth.find(stamp);
+    ASSERT_NE(t, truth.end());
+    sum_squared += (pose.pose.translation().head<2>() - t->second).squaredNorm();
+  }
+  EXPECT_LT(std::sqrt(sum_squared / static_cast<double>(poses.size())), 0.08);
+  EXPECT_EQ(std::count(states.begin(), states.end(), static_cast<uint32_t>(locd_msg_LOCALIZATION_LOST)), 0)
+      << "feature_ekf reported lost " << std::count(states.begin(), states.end(), static_cast<uint32_t>(locd_msg_LOCALIZATION_LOST))
+      << " times in " << states.size() << " statuses";
+  EXPECT_EQ(watcher.status_now().rejected, 0u) << watcher.status_now().last_error;
 }

@@ -40,7 +40,7 @@ Ros2Robot::Ros2Robot(const dds::Participant& participant, Ros2RobotOptions optio
             }) {
   if (on_transform) {
     tf_ = dds::Reader<ros2::TFMessage>(
-        participant, topic(options_.ros_namespace, "tf"), dds::QosProfile::kRos2Default,
+        participant, ros2_dds_topic("/tf"), dds::QosProfile::kRos2Default,
         [on_transform = std::move(on_transform)](const ros2::TFMessage& m) {
           for (uint32_t i = 0; i < m.transforms._length; ++i) {
             const auto& t = m.transforms._buffer[i];
@@ -63,7 +63,7 @@ std::string Ros2Robot::config_section(const std::string& ros_namespace, const st
   s.precision(17);
   s << "ros2:\n"
     << "  namespace: " << ros_namespace << "\n"
-    << "  topics: {scan: scan, odometry: odom, initial_pose: initialpose, pose: amcl_pose, tf: tf}\n"
+    << "  topics: {scan: scan, odometry: odom, initial_pose: initialpose, pose: amcl_pose, tf: /tf}\n"
     << "  sensor_frames: {" << laser_frame << ": [" << p.x() << ", " << p.y() << ", " << p.z() << ", " << rpy[2]
     << ", " << rpy[1] << ", " << rpy[0] << "]}\n";
   return s.str();

@@ -30,7 +30,7 @@ void GridMclLocalizer::configure(const PluginContext& context, const Params& par
   if (!ignored.empty()) {
     std::string list;
     for (const std::string& key : ignored) list += (list.empty() ? "" : ", ") + key;
-    context.log(LogLevel::kInfo, "grid_mcl: AMCL parameters without meaning in locd ignored: " + list);
+    context.log(LogLevel::kInfo, "grid_mcl: AMCL beam skipping settings ignored (do_beamskip is false): " + list);
   }
   std::filesystem::path yaml_file;
   try {

@@ -4,14 +4,14 @@
 #include <cmath>
 #include <limits>
 
+#include "locd/sdk/ros2_config.hpp"
+
 namespace locd::grid_mcl {
 namespace {
 
-// Nav2 AMCL parameters that configure ROS plumbing, not the filter: accepted, ignored.
-const char* const kIgnoredAmclKeys[] = {"base_frame_id", "global_frame_id", "odom_frame_id", "scan_topic", "map_topic",
-                                        "tf_broadcast", "transform_tolerance", "save_pose_rate", "use_sim_time",
-                                        "always_reset_initial_pose", "first_map_only", "beam_skip_distance",
-                                        "beam_skip_threshold", "beam_skip_error_threshold"};
+// AMCL's beam skipping settings: they act only with do_beamskip, which is refused (AMCL too
+// ignores them without it): accepted, ignored.
+const char* const kIgnoredAmclKeys[] = {"beam_skip_distance", "beam_skip_threshold", "beam_skip_error_threshold"};
 
 MotionModelType read_motion_model(const Params& p) {
   const std::string name =
@@ -120,6 +120,15 @@ void read_initial_pose(const Params& p, Config& c) {
 }  // namespace
 
 Config parse_config(const Params& params, const Limits& limits, std::vector<std::string>* ignored) {
+  // AMCL's ROS keys (frames, topics, tf) are the robot's ros2 section's; a Nav2 params file has
+  // them moved there before the plugin sees its parameters (sdk/ros2_config.hpp).
+  for (const char* key : kAmclRosKeys) {
+    if (params.has(key)) {
+      params.fail(key, "is a ROS 2 setting, not grid_mcl's: give the robot's ros2 section its counterpart (README "
+                       "\"ROS 2 robots\"), or the whole Nav2 params file (amcl: {ros__parameters: ...}), which "
+                       "locd reads as grid_mcl's config with these keys honoured");
+    }
+  }
   params.expect_only({"map", "robot_model_type", "alpha1", "alpha2", "alpha3", "alpha4", "alpha5", "laser_model_type",
                       "max_beams", "laser_min_range", "laser_max_range", "z_hit", "z_short", "z_max", "z_rand",
                       "sigma_hit", "lambda_short", "laser_likelihood_max_dist", "search_sigma_hit", "min_particles", "max_particles",
@@ -127,10 +136,7 @@ Config parse_config(const Params& params, const Limits& limits, std::vector<std:
                       "recovery_alpha_fast", "relocalize_after_lost_updates", "update_min_d", "update_min_a", "cluster_radius", "threads", "seed",
                       "set_initial_pose", "initial_pose", "initial_cov_xx", "initial_cov_yy", "initial_cov_aa",
                       "global_localization_stddev", "localization_state", "diagnostics_particles", "publish_map",
-                      "do_beamskip", "base_frame_id", "global_frame_id", "odom_frame_id", "scan_topic", "map_topic",
-                      "tf_broadcast", "transform_tolerance", "save_pose_rate", "use_sim_time",
-                      "always_reset_initial_pose", "first_map_only", "beam_skip_distance", "beam_skip_threshold",
-                      "beam_skip_error_threshold"});
+                      "do_beamskip", "beam_skip_distance", "beam_skip_threshold", "beam_skip_error_threshold"});
   if (params.flag("do_beamskip", false)) {
     params.fail("do_beamskip", "= true is not supported by grid_mcl; allowed: false");
   }

@@ -70,23 +70,32 @@ TEST_F(GridMclPlugin, ShippedConfigsConfigure) {
 TEST_F(GridMclPlugin, AnAmclYamlTranslatesOneToOne) {
   // Nav2's amcl parameters as they stand in nav2_params.yaml (ros__parameters), plus the map.
   const std::string amcl =
-      "  map: corridor_grid.yaml\n  alpha1: 0.2\n  alpha2: 0.2\n  alpha3: 0.2\n  alpha4: 0.2\n  alpha5: 0.2\n"
-      "  base_frame_id: base_footprint\n  beam_skip_distance: 0.5\n  beam_skip_error_threshold: 0.9\n"
-      "  beam_skip_threshold: 0.3\n  do_beamskip: false\n  global_frame_id: map\n  lambda_short: 0.1\n"
-      "  laser_likelihood_max_dist: 2.0\n  laser_max_range: 100.0\n  laser_min_range: -1.0\n"
-      "  laser_model_type: likelihood_field\n  max_beams: 60\n  max_particles: 2000\n  min_particles: 500\n"
-      "  odom_frame_id: odom\n  pf_err: 0.05\n  pf_z: 0.99\n  recovery_alpha_fast: 0.0\n  recovery_alpha_slow: 0.0\n"
-      "  resample_interval: 1\n  robot_model_type: nav2_amcl::DifferentialMotionModel\n  save_pose_rate: 0.5\n"
-      "  sigma_hit: 0.2\n  tf_broadcast: true\n  transform_tolerance: 1.0\n  update_min_a: 0.2\n  update_min_d: 0.25\n"
-      "  z_hit: 0.5\n  z_max: 0.05\n  z_rand: 0.5\n  z_short: 0.05\n  scan_topic: scan\n"
-      "  set_initial_pose: true\n  initial_pose: {x: 3.0, y: 1.0, z: 0.0, yaw: 0.0}\n";
-  EXPECT_NO_THROW(configured("plugin: grid_mcl\nparams:\n" + amcl));
-  ASSERT_FALSE(log.empty());
-  EXPECT_NE(log.back().find("base_frame_id"), std::string::npos) << log.back();
+      "    map: corridor_grid.yaml\n    alpha1: 0.2\n    alpha2: 0.2\n    alpha3: 0.2\n    alpha4: 0.2\n    alpha5: 0.2\n"
+      "    base_frame_id: base_footprint\n    beam_skip_distance: 0.5\n    beam_skip_error_threshold: 0.9\n"
+      "    beam_skip_threshold: 0.3\n    do_beamskip: false\n    global_frame_id: map\n    lambda_short: 0.1\n"
+      "    laser_likelihood_max_dist: 2.0\n    laser_max_range: 100.0\n    laser_min_range: -1.0\n"
+      "    laser_model_type: likelihood_field\n    max_beams: 60\n    max_particles: 2000\n    min_particles: 500\n"
+      "    odom_frame_id: odom\n    pf_err: 0.05\n    pf_z: 0.99\n    recovery_alpha_fast: 0.0\n    recovery_alpha_slow: 0.0\n"
+      "    resample_interval: 1\n    robot_model_type: nav2_amcl::DifferentialMotionModel\n    save_pose_rate: 0.5\n"
+      "    sigma_hit: 0.2\n    tf_broadcast: true\n    transform_tolerance: 1.0\n    update_min_a: 0.2\n    update_min_d: 0.25\n"
+      "    z_hit: 0.5\n    z_max: 0.05\n    z_rand: 0.5\n    z_short: 0.05\n    scan_topic: scan\n"
+      "    set_initial_pose: true\n    initial_pose: {x: 3.0, y: 1.0, z: 0.0, yaw: 0.0}\n";
+  // The Nav2 params file: the ROS keys go to the robot's ros2 section, the rest configures the plugin.
+  const PluginConfig nav2 = split_plugin_config("amcl:\n  ros__parameters:\n" + amcl, "nav2_params.yaml");
+  ASSERT_EQ(nav2.plugin, "grid_mcl");
+  EXPECT_EQ(nav2.ros2->base_frame, "base_footprint");
+  LocalizerPtr l = library()->create();
+  EXPECT_NO_THROW(l->configure(context, nav2.params));
   std::string beamskip = amcl;
   beamskip.replace(beamskip.find("do_beamskip: false"), 18, "do_beamskip: true");
-  EXPECT_NE(error(beamskip).find("do_beamskip' (line 13, column 16) = true is not supported"), std::string::npos)
-      << error(beamskip);
+  const PluginConfig skipping = split_plugin_config("amcl:\n  ros__parameters:\n" + beamskip, "nav2_params.yaml");
+  const std::string refused = test::error_of([&] { library()->create()->configure(context, skipping.params); });
+  EXPECT_NE(refused.find("'amcl.ros__parameters.do_beamskip' (line 13, column 18) = true is not supported"),
+            std::string::npos) << refused;
+  // In grid_mcl's own params a ROS key is refused by name, saying where it is honoured.
+  const std::string ros_key = error("  map: corridor_grid.yaml\n  tf_broadcast: true\n");
+  EXPECT_NE(ros_key.find("'grid_mcl.tf_broadcast' (line 4"), std::string::npos) << ros_key;
+  EXPECT_NE(ros_key.find("is a ROS 2 setting, not grid_mcl's"), std::string::npos) << ros_key;
 }
 
 TEST_F(GridMclPlugin, ParameterErrorsNameTheirKey) {

@@ -76,7 +76,8 @@ enum class QosProfile {
   // ROS 2's profiles (rclcpp's QoS presets; notes/dds.md), for the topics of ROS 2 robots:
   kRos2SensorData,  // best effort, keep-last(depth), volatile: a reader matches best-effort and reliable writers
   kRos2Default,     // reliable, keep-last(depth), volatile
-  kRos2Latched,     // reliable, keep-last 1, transient-local (maps, amcl_pose)
+  kRos2Latched,     // reliable, keep-last(depth), transient-local (maps, amcl_pose: depth 1; tf_static)
+  kRos2Rosout,      // rcl's /rosout profile: reliable, keep-last(depth), transient-local, 10 s lifespan
 };
 
 struct QosDeleter { void operator()(dds_qos_t* q) const { dds_delete_qos(q); } };
@@ -258,6 +259,7 @@ class Reader {
     return s.current_count;
   }
   const std::string& topic() const { return topic_; }
+  dds_entity_t handle() const { return state_ ? state_->entity.handle() : 0; }
 
  private:
   struct State {

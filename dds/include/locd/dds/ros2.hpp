@@ -21,6 +21,12 @@ using PoseWithCovarianceStamped = geometry_msgs_msg_dds__PoseWithCovarianceStamp
 using PoseArray = geometry_msgs_msg_dds__PoseArray_;
 using TransformStamped = geometry_msgs_msg_dds__TransformStamped_;
 using TFMessage = tf2_msgs_msg_dds__TFMessage_;
+using Particle = nav2_msgs_msg_dds__Particle_;
+using ParticleCloud = nav2_msgs_msg_dds__ParticleCloud_;
+using Log = rcl_interfaces_msg_dds__Log_;
+using Gid = rmw_dds_common_msg_dds__Gid_;
+using NodeEntitiesInfo = rmw_dds_common_msg_dds__NodeEntitiesInfo_;
+using ParticipantEntitiesInfo = rmw_dds_common_msg_dds__ParticipantEntitiesInfo_;
 
 // sensor_msgs/PointField datatypes.
 enum PointFieldType : uint8_t { kInt8 = 1, kUint8, kInt16, kUint16, kInt32, kUint32, kFloat32, kFloat64 };
@@ -29,10 +35,16 @@ enum PointFieldType : uint8_t { kInt8 = 1, kUint8, kInt16, kUint16, kInt32, kUin
 //  sensors: SensorDataQoS, best effort keep-last 5 (a best-effort reader matches any writer);
 //  initial pose: default, reliable keep-last 10 (what RViz's 2D Pose Estimate writes);
 //  pose (amcl_pose), maps, map clouds: reliable, transient-local, keep-last 1;
-//  tf: reliable keep-last 100; particles: reliable keep-last 10 (matches any reader).
+//  tf: reliable keep-last 100 (tf2_ros's broadcaster and listener); tf_static: reliable,
+//  transient-local, keep-last 1 written (tf2_ros's static broadcaster) and 100 read (its static
+//  listener); particles: reliable keep-last 10 (matches best-effort and reliable readers);
+//  /rosout: rcl's rosout profile, reliable, transient-local, keep-last 1000, 10 s lifespan;
+//  ros_discovery_info: reliable, transient-local, keep-last 1 (rmw_cyclonedds, rmw_fastrtps).
 inline constexpr int kSensorDepth = 5;
 inline constexpr int kDefaultDepth = 10;
 inline constexpr int kTfDepth = 100;
+inline constexpr int kRosoutDepth = 1000;
+inline constexpr const char* kDiscoveryTopic = "ros_discovery_info";
 }  // namespace ros2
 
 #define LOCD_ROS2_DESCRIPTOR(TYPE, DESC) \
@@ -46,6 +58,9 @@ LOCD_ROS2_DESCRIPTOR(ros2::OccupancyGrid, nav_msgs_msg_dds__OccupancyGrid__desc)
 LOCD_ROS2_DESCRIPTOR(ros2::PoseWithCovarianceStamped, geometry_msgs_msg_dds__PoseWithCovarianceStamped__desc)
 LOCD_ROS2_DESCRIPTOR(ros2::PoseArray, geometry_msgs_msg_dds__PoseArray__desc)
 LOCD_ROS2_DESCRIPTOR(ros2::TFMessage, tf2_msgs_msg_dds__TFMessage__desc)
+LOCD_ROS2_DESCRIPTOR(ros2::ParticleCloud, nav2_msgs_msg_dds__ParticleCloud__desc)
+LOCD_ROS2_DESCRIPTOR(ros2::Log, rcl_interfaces_msg_dds__Log__desc)
+LOCD_ROS2_DESCRIPTOR(ros2::ParticipantEntitiesInfo, rmw_dds_common_msg_dds__ParticipantEntitiesInfo__desc)
 #undef LOCD_ROS2_DESCRIPTOR
 
 }  // namespace locd::dds

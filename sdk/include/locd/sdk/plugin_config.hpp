@@ -8,6 +8,16 @@
 //     namespace: /robot1
 //     topics: {scan: scan, odometry: odom, pose: amcl_pose}
 //
+// A Nav2 params file is one too (README "A Nav2 params file"): `amcl: {ros__parameters: ...}` is
+// grid_mcl with AMCL's parameters, its ROS keys (frames, scan_topic, tf_broadcast,
+// transform_tolerance) the robot's ros2 section, map_server's yaml_filename the map:
+//
+//   amcl:
+//     ros__parameters: {alpha1: 0.2, base_frame_id: base_footprint, max_particles: 2000, ...}
+//   map_server:
+//     ros__parameters: {yaml_filename: warehouse.yaml}
+//   ros2: {namespace: /robot1}     # optional, as above
+//
 // split_plugin_config checks the frame (known keys, a valid plugin name, params a map) and hands
 // back the plugin name and its parameters, rooted at the plugin's name, so a plugin's errors read
 // "parameter 'feature_ekf.gate_probability' (line 4, column 21) = 1.5 is out of range; ...".

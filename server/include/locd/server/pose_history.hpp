@@ -20,6 +20,9 @@ class PoseHistory {
   void add(int64_t stamp_ns, const Eigen::Isometry3d& pose);
   std::optional<Eigen::Isometry3d> at(int64_t stamp_ns) const;
   size_t size() const { return samples_.size(); }
+  // The stamps the history spans (call only when size() > 0).
+  int64_t oldest_stamp() const { return samples_.front().first; }
+  int64_t newest_stamp() const { return samples_.back().first; }
 
  private:
   size_t capacity_;

@@ -1,19 +1,28 @@
 // ROS 2 robots without a bridge node: for each robot whose session config has a `ros2:` section
 // (locd/sdk/ros2_config.hpp), readers of the standard messages its drivers already publish and
 // writers of locd's outputs as ROS 2 messages, on ROS 2's topics (rt/<namespace>/<name>), types
-// (<pkg>::msg::dds_::<Name>_) and QoS, in the default partition as rmw does it.
+// (<pkg>::msg::dds_::<Name>_) and QoS, in the default partition as rmw does it; and what makes it
+// behave like Nav2 AMCL where a robot stack depends on it (README "ROS 2 robots").
 //
 // - A robot's endpoints appear when its session is configured (SessionObserver) and go when it
-//   stops (deleted off the DDS listener thread the stop arrived on); a switch to a config with the same ros2 section keeps them (and the pose a late
-//   joiner gets), one with another section replaces them, one without removes them. Two robots
-//   may not share a topic (except tf, which every robot writes).
+//   stops (deleted off the DDS listener thread the stop arrived on); a switch to a config with
+//   the same ros2 section keeps them (and the pose a late joiner gets), one with another section
+//   replaces them, one without removes them. Two robots may not share a topic (except tf and
+//   tf_static).
 // - Inputs are converted (ros2_convert.hpp: sizes bounded before allocation, the sdk checks) and
 //   handed to Server::on_measurement / on_initial_pose, so the same queue, stamp order and
 //   limits apply as on locd's own topics; a bad message goes to Server::on_bad_input, naming
-//   the ROS 2 topic.
+//   the ROS 2 topic. Sensor frames come from the config or, without sensor_frames, from the
+//   robot's /tf_static and /tf (TransformBuffer) at each message's stamp.
 // - Outputs: it wraps the OutputSink. Every call goes on to `next` (the DDS bridge); for a robot
-//   with ROS 2 endpoints, its pose, map -> odom transform, grids, map cloud and particles are
-//   written as well.
+//   with ROS 2 endpoints its map, grids and map cloud are written as well, and, once the robot
+//   has an initial pose or its plugin reports tracking (AMCL publishes nothing before an initial
+//   pose), its pose, particles and map -> odom: stamped the pose's stamp + transform_tolerance,
+//   with the odometry at the pose's stamp (it waits for it; past odometry_timeout the transform
+//   is withheld and the status says why).
+// - The robot's status problems go to /rosout as warnings (rqt_console shows them), and every
+//   robot is a node (`<namespace>/locd`) in ros_discovery_info with the GIDs of its endpoints,
+//   so `ros2 node list` and `ros2 topic info -v` show it.
 #pragma once
 
 #include <condition_variable>
@@ -25,6 +34,7 @@
 #include <vector>
 
 #include "locd/dds/dds.hpp"
+#include "locd/dds/ros2.hpp"
 #include "locd/sdk/plugin.hpp"
 #include "locd/server/log.hpp"
 #include "locd/server/output_sink.hpp"
@@ -66,6 +76,10 @@ class Ros2Bridge : public OutputSink, public SessionObserver {
 
  private:
   struct Robot;
+  // /rosout, for every robot: `name` is the robot's logger (e.g. "robot1.locd").
+  void rosout(uint8_t level, const std::string& name, const std::string& text);
+  // Writes ros_discovery_info: this participant's nodes, one per robot, with their GIDs.
+  void publish_discovery();
   // Hands a robot's endpoints over for deletion. A stop request arrives on a DDS listener thread,
   // which must not delete DDS entities (Cyclone's deletion waits for that very thread): they are
   // deleted on the reaper thread, or by reap() on a worker.
@@ -82,6 +96,10 @@ class Ros2Bridge : public OutputSink, public SessionObserver {
   mutable std::mutex mutex_;  // guards server_ and robots_
   Server* server_ = nullptr;
   std::map<std::string, std::shared_ptr<Robot>> robots_;
+
+  std::mutex graph_mutex_;  // guards the writers below, made with the first robot
+  std::unique_ptr<dds::Writer<dds::ros2::ParticipantEntitiesInfo>> discovery_;
+  std::unique_ptr<dds::Writer<dds::ros2::Log>> rosout_;
 
   std::mutex retired_mutex_;
   std::condition_variable retired_changed_;

@@ -49,6 +49,8 @@ class Server {
   void on_session_request(SessionRequestMessage request);
   void on_measurement(const std::string& robot_id, Measurement measurement);
   void on_bad_input(const std::string& robot_id, const std::string& topic, const std::string& error);
+  // An output withheld for a reason the robot should see (Session::report_output_problem).
+  void on_output_problem(const std::string& robot_id, const std::string& problem);
   void on_initial_pose(const std::string& robot_id, const PoseEstimate& pose);
   void on_map_save_request(const std::string& robot_id, uint64_t request_id);
   // A sample whose robot id is not allowed (robot_id.hpp), or that came from a writer outside any

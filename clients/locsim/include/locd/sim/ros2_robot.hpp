@@ -13,7 +13,7 @@
 namespace locd::sim {
 
 struct Ros2RobotOptions {
-  std::string ros_namespace;       // "/robot1"; topics scan, odom, initialpose, amcl_pose, tf inside it
+  std::string ros_namespace;       // "/robot1"; topics scan, odom, initialpose, amcl_pose inside it; tf is /tf
   std::string base_frame = "base_link";
   dds::QosProfile sensor_qos = dds::QosProfile::kRos2SensorData;  // or kRos2Default: a reliable driver
 };
