@@ -19,6 +19,9 @@ constexpr double kBreakpointNoiseSigmas = 3.0;
 constexpr double kMinChordLength = 1e-9;
 // Edges seen at |cos(incidence)| below this are grazing: the end is poorly defined along the line.
 constexpr double kMinEdgeIncidence = 0.1;
+// At most this many no-return or too-close readings amid a surface's returns are a dropout, not
+// a gap: real lasers miss single beams on dark or shiny spots (a door is tens of beams wide).
+constexpr size_t kDropoutBeams = 2;
 // A fitted line's points along it need some spread (m^2) for its angle to have a variance.
 constexpr double kMinLineSpread = 1e-12;
 
@@ -176,14 +179,16 @@ std::vector<Segment> split_and_merge(const std::vector<Eigen::Vector2d>& points,
   return merged;
 }
 
-// Whether the beams strictly between two returns break a surface: a no-return or too-close
-// reading does (something else, or nothing, was seen there); NaN and zero readings (REP 117:
-// erroneous) say nothing, so a surface runs on across them.
+// Whether the beams strictly between two returns break a surface: more than kDropoutBeams
+// no-return or too-close readings do (something else, or nothing, was seen there); fewer are a
+// dropout on the surface (a dark or shiny spot, dust). NaN and zero readings (REP 117: erroneous)
+// say nothing, so a surface runs on across them.
 bool broken_between(const LaserScan& scan, size_t first_beam, size_t second_beam) {
+  size_t seen_elsewhere = 0;
   for (size_t b = first_beam + 1; b < second_beam; ++b) {
-    if (scan.reading(b) != RangeReading::kInvalid) return true;
+    if (scan.reading(b) != RangeReading::kInvalid) ++seen_elsewhere;
   }
-  return false;
+  return seen_elsewhere > kDropoutBeams;
 }
 
 Segmentation segment(const LaserScan& scan, const ScanPoints& p, const ExtractorConfig& c) {
@@ -289,10 +294,19 @@ std::vector<ExtractedPoint> find_edges(const LaserScan& scan, const Pose2& senso
   const double uniform_stddev_per_step = beam_step / std::sqrt(12.0);
   // The neighbour beam saw something farther: a return beyond the jump, or open space (REP 117's
   // no return: +inf or a max-range reading). NaN, zero or too close says nothing.
-  const auto neighbour_is_farther = [&](size_t beam, size_t end_index) {
-    const RangeReading reading = scan.reading(beam);
-    if (reading == RangeReading::kHit) return scan.ranges[beam] >= p.ranges[end_index] + c.edge_min_depth_jump;
-    return reading == RangeReading::kNoReturn;
+  // A dropout (at most kDropoutBeams no-returns, then a return) is looked across.
+  const auto neighbour_is_farther = [&](size_t beam, size_t end_index, int side) {
+    size_t no_returns = 0;
+    for (size_t b = beam; b < scan.ranges.size(); b = side < 0 ? b - 1 : b + 1) {  // below 0 wraps: ends
+      const RangeReading reading = scan.reading(b);
+      if (reading == RangeReading::kHit) {
+        return scan.ranges[b] >= p.ranges[end_index] + c.edge_min_depth_jump;
+      }
+      if (reading == RangeReading::kTooClose) return false;
+      if (reading == RangeReading::kNoReturn && ++no_returns > kDropoutBeams) return true;
+      if (reading == RangeReading::kInvalid && no_returns == 0) return false;
+    }
+    return no_returns > 0;
   };
   std::vector<ExtractedPoint> edges;
   for (size_t k = 0; k < lines.size(); ++k) {
@@ -306,7 +320,7 @@ std::vector<ExtractedPoint> find_edges(const LaserScan& scan, const Pose2& senso
       if (side > 0 && p.beams[end_index] + 1 >= scan.ranges.size()) continue;
       const size_t neighbour = side < 0 ? end_index - 1 : end_index + 1;  // may be out of range (unused then)
       const size_t neighbour_beam = side < 0 ? p.beams[end_index] - 1 : p.beams[end_index] + 1;
-      if (!neighbour_is_farther(neighbour_beam, end_index)) continue;
+      if (!neighbour_is_farther(neighbour_beam, end_index, side)) continue;
       const bool neighbour_hit = neighbour < p.points.size() && p.beams[neighbour] == neighbour_beam;
       if (neighbour_hit && std::abs(p.points[neighbour].dot(normal) - line.z.x()) < c.edge_min_depth_jump) continue;
       const double ray_angle = sensor.theta + scan.angle(p.beams[end_index]) + 0.5 * side * scan.angle_increment;
