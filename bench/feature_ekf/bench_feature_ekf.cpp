@@ -126,6 +126,31 @@ void BM_ScanAgreement(benchmark::State& state) {
   state.counters["agreement"] = sum / state.iterations();
 }
 
+// The agreement's 90 casts per scan: every wall tested per beam (Arg 0, the direct formula, what
+// agreement() did before issue 25) or the walls culled by range and bearing (Arg 1, cast_all).
+void BM_AgreementCasts(benchmark::State& state) {
+  const Corridor& world = corridor();
+  const ScanAgreement agreement(ScanAgreementConfig{}, world.map);
+  const bool culled = state.range(0) == 1;
+  size_t i = 0;
+  double sum = 0.0;
+  for (auto _ : state) {
+    const size_t k = i++ % world.scans.size();
+    const LaserScan& scan = world.scans[k];
+    const Pose2 laser = world.poses[k] * Pose2::from_isometry(scan.sensor_pose);
+    std::vector<double> headings;
+    for (size_t b = 0; b < scan.ranges.size(); b += scan.ranges.size() / 90) headings.push_back(laser.theta + scan.angle(b));
+    if (culled) {
+      for (const double r : agreement.cast_all({laser.x, laser.y}, headings, scan.range_max)) sum += std::isfinite(r);
+    } else {
+      for (const double h : headings) sum += std::isfinite(agreement.cast({laser.x, laser.y}, h, scan.range_max));
+    }
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["walls"] = static_cast<double>(world.map.lines.size());
+  state.counters["hits_per_scan"] = sum / state.iterations();
+}
+
 // What the plugin runs per scan while tracking: the update, the agreement, the state.
 void BM_MonitoredScanUpdate(benchmark::State& state) {
   const Corridor& world = corridor();
@@ -178,6 +203,7 @@ BENCHMARK(BM_Extraction);
 BENCHMARK(BM_AssociationAndUpdate);
 BENCHMARK(BM_ScanUpdate);
 BENCHMARK(BM_ScanAgreement);
+BENCHMARK(BM_AgreementCasts)->Arg(0)->Arg(1);
 BENCHMARK(BM_MonitoredScanUpdate);
 BENCHMARK(BM_GlobalSearchScan)->Arg(1)->Arg(0);
 BENCHMARK_MAIN();

@@ -62,6 +62,46 @@ TEST(ScanAgreement, HighAtTheTruePoseLowElsewhere) {
   EXPECT_TRUE(std::isinf(agreement.cast({31.0, 1.0}, 0.0, 5.0)));
 }
 
+TEST(ScanAgreement, CullingByRangeAndBearingGivesTheDirectCast) {
+  // cast_all (walls culled by range and bearing) against cast (every wall tested): the same
+  // range, bit for bit, on the corridor and on 300 random walls, from random origins, for random
+  // headings and for the headings of the walls' ends (the edges of a bearing span).
+  FeatureMap2D random_walls;
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> coordinate(-20.0, 20.0), offset(-3.0, 3.0), angle(-M_PI, M_PI);
+  for (int k = 0; k < 300; ++k) {
+    LineFeature l;
+    l.a = Eigen::Vector2d(coordinate(rng), coordinate(rng));
+    l.b = l.a + Eigen::Vector2d(offset(rng), offset(rng));
+    random_walls.lines.push_back(l);
+  }
+  size_t hits = 0, compared = 0;
+  for (const FeatureMap2D& map : {corridor_map(), random_walls}) {
+    const ScanAgreement agreement(ScanAgreementConfig{}, map);
+    for (int trial = 0; trial < 40; ++trial) {
+      const Eigen::Vector2d origin(coordinate(rng) + 20.0 * (map.lines.size() < 100), coordinate(rng) / 4.0 + 5.0);
+      std::vector<double> headings;
+      for (int k = 0; k < 200; ++k) headings.push_back(angle(rng) + 2.0 * M_PI * (k % 3 - 1));
+      for (const LineFeature& l : map.lines) {
+        headings.push_back(std::atan2(l.a.y() - origin.y(), l.a.x() - origin.x()));
+        headings.push_back(std::atan2(l.b.y() - origin.y(), l.b.x() - origin.x()));
+      }
+      for (const double max_range : {3.0, 15.0, 80.0}) {
+        const std::vector<double> fast = agreement.cast_all(origin, headings, max_range);
+        ASSERT_EQ(fast.size(), headings.size());
+        for (size_t k = 0; k < headings.size(); ++k) {
+          const double direct = agreement.cast(origin, headings[k], max_range);
+          ASSERT_EQ(fast[k], direct) << "origin " << origin.transpose() << " heading " << headings[k];
+          hits += std::isfinite(direct);
+          ++compared;
+        }
+      }
+    }
+  }
+  EXPECT_GT(hits, compared / 4) << "the comparison must include many hits";
+  EXPECT_LT(hits, compared) << "and misses";
+}
+
 TEST(ScanAgreement, Rep117ReadingsAreNoEvidence) {
   // Real lasers return NaN, zero, -inf (too close) and max-range readings where the map has a
   // wall: none of them may count as disagreement (issue 22: every 7th beam NaN sent the plugin to

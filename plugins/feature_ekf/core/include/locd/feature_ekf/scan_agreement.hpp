@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 #include <optional>
+#include <vector>
 
 #include "locd/feature_ekf/config.hpp"
 #include "locd/sdk/feature_map.hpp"
@@ -26,8 +27,19 @@ class ScanAgreement {
   std::optional<double> agreement(const LaserScan& scan, const Pose2& robot) const;
 
   // Range from origin along heading to the nearest wall of the map, or +inf when none is hit
-  // within max_range.
+  // within max_range: every wall tested (the direct formula).
   double cast(const Eigen::Vector2d& origin, double heading, double max_range) const;
+
+  // cast() for many headings from one origin, with the same results: walls beyond max_range are
+  // left out, and each heading tests only the walls whose bearing span (seen from origin, padded
+  // by kSpanPadding) holds it.
+  std::vector<double> cast_all(const Eigen::Vector2d& origin, const std::vector<double>& headings,
+                               double max_range) const;
+
+  // Bearing bins of cast_all (one wall may fill several) and the padding of a wall's span (rad):
+  // far above atan2's rounding, far below a beam step.
+  static constexpr int kBearingBins = 128;
+  static constexpr double kSpanPadding = 1e-9;
 
   const ScanAgreementConfig& config() const { return config_; }
 
