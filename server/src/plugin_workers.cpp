@@ -79,6 +79,11 @@ std::string process_state(pid_t pid) {
 
 }  // namespace
 
+size_t WorkerSettings::auto_worker_cap() const {
+  if (workers_per_plugin > 0) return workers_per_plugin;
+  return std::max<size_t>(8, 4 * static_cast<size_t>(std::max(1u, std::thread::hardware_concurrency())));
+}
+
 size_t WorkerSettings::sessions_per_worker_of(const std::string& plugin) const {
   auto it = plugins.find(plugin);
   return it != plugins.end() && it->second.sessions_per_worker ? *it->second.sessions_per_worker : sessions_per_worker;
@@ -283,23 +288,51 @@ void PluginWorkers::run_spawn_requests() {
 
 uint64_t PluginWorkers::create_instance(const std::shared_ptr<const PluginLibrary>& library,
                                         std::weak_ptr<InstanceOwner> owner) {
-  const size_t capacity = std::max<size_t>(1, settings_.sessions_per_worker_of(library->name()));
+  const size_t capacity = settings_.sessions_per_worker_of(library->name());
   std::shared_ptr<Worker> chosen;
   {
     // The slot is taken in the same step as it is found (a worker's count never lags behind the
-    // sessions that chose it); a new worker comes with its first slot taken.
+    // sessions that chose it); a new worker comes with its first slot taken, and a worker being
+    // started counts against the automatic cap from the moment it is decided.
     std::lock_guard<std::mutex> lock(mutex_);
     if (stopping_) throw std::runtime_error("the server is shutting down");
+    size_t open_workers = spawning_[library->name()];
+    std::shared_ptr<Worker> least_loaded;
+    size_t least_instances = 0;
     for (const auto& [_, w] : workers_) {
       std::lock_guard<std::mutex> worker_lock(w->mutex);
-      if (w->plugin == library->name() && !w->closed && w->instances < capacity) {
+      if (w->plugin != library->name() || w->closed) continue;
+      ++open_workers;
+      if (capacity != WorkerSettings::kAuto && w->instances < capacity) {
         ++w->instances;
         chosen = w;
         break;
       }
+      if (capacity == WorkerSettings::kAuto && (!least_loaded || w->instances < least_instances)) {
+        least_loaded = w;
+        least_instances = w->instances;
+      }
     }
+    if (least_loaded && open_workers >= settings_.auto_worker_cap()) {
+      std::lock_guard<std::mutex> worker_lock(least_loaded->mutex);
+      if (!least_loaded->closed) {
+        ++least_loaded->instances;
+        chosen = least_loaded;
+      }
+    }
+    if (!chosen) ++spawning_[library->name()];
   }
-  if (!chosen) chosen = start_worker_on_io_thread(library);
+  if (!chosen) {
+    struct Spawned {
+      PluginWorkers& self;
+      const std::string& plugin;
+      ~Spawned() {
+        std::lock_guard<std::mutex> lock(self.mutex_);
+        --self.spawning_[plugin];
+      }
+    } spawned{*this, library->name()};
+    chosen = start_worker_on_io_thread(library);
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   if (!workers_.count(chosen->key)) {
     // Reaped meanwhile: its loss was told to the instances it had, which did not include this one.

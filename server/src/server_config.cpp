@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <cctype>
 #include <fstream>
 #include <sstream>
 
@@ -88,8 +89,19 @@ BootSession boot_session(const Params& entry, size_t index, const std::string& s
 constexpr double kMaxDeadlineS = 86400.0;
 constexpr long kMaxSessionsPerWorker = 100000;
 
+// sessions_per_worker: 'auto' (WorkerSettings::kAuto) or 1..kMaxSessionsPerWorker.
+size_t sessions_per_worker(const Params& p) {
+  const YAML::Node value = p.node()["sessions_per_worker"];
+  if (value.IsScalar() && value.Scalar() == "auto") return WorkerSettings::kAuto;
+  if (value.IsScalar() && !value.Scalar().empty() && !std::isdigit(static_cast<unsigned char>(value.Scalar()[0]))) {
+    p.fail("sessions_per_worker", "= '" + value.Scalar() + "' is neither 'auto' nor a count; allowed: auto or 1.." +
+                                      std::to_string(kMaxSessionsPerWorker));
+  }
+  return static_cast<size_t>(p.integer("sessions_per_worker", 1, 1, kMaxSessionsPerWorker));
+}
+
 void parse_plugin_workers(const Params& p, const fs::path& base, ServerConfig& c) {
-  p.expect_only({"executable", "sessions_per_worker", "configure_deadline_s", "update_deadline_s", "memory_limit_mb",
+  p.expect_only({"executable", "sessions_per_worker", "workers_per_plugin", "configure_deadline_s", "update_deadline_s", "memory_limit_mb",
                  "liveness_timeout_s", "max_failures", "restart_backoff_s", "failure_reset_s", "plugins"});
   WorkerSettings& w = c.plugin_workers;
   if (p.has("executable")) {
@@ -98,7 +110,8 @@ void parse_plugin_workers(const Params& p, const fs::path& base, ServerConfig& c
   } else {
     w.executable = default_worker_executable();
   }
-  w.sessions_per_worker = static_cast<size_t>(p.integer("sessions_per_worker", 1, 1, kMaxSessionsPerWorker));
+  if (p.has("sessions_per_worker")) w.sessions_per_worker = sessions_per_worker(p);
+  w.workers_per_plugin = static_cast<size_t>(p.integer("workers_per_plugin", 0, 0, 10000));
   w.configure_deadline_s = p.number("configure_deadline_s", w.configure_deadline_s, Range::closed(0.01, kMaxDeadlineS));
   w.update_deadline_s = p.number("update_deadline_s", w.update_deadline_s, Range::closed(0.01, kMaxDeadlineS));
   w.memory_limit_mb = p.integer("memory_limit_mb", w.memory_limit_mb, 0, 1L << 30);
@@ -125,7 +138,7 @@ void parse_plugin_workers(const Params& p, const fs::path& base, ServerConfig& c
     o.expect_only({"sessions_per_worker", "configure_deadline_s", "update_deadline_s"});
     WorkerSettings::Override override;
     if (o.has("sessions_per_worker")) {
-      override.sessions_per_worker = static_cast<size_t>(o.integer("sessions_per_worker", 1, 1, kMaxSessionsPerWorker));
+      override.sessions_per_worker = sessions_per_worker(o);
     }
     if (o.has("configure_deadline_s")) {
       override.configure_deadline_s = o.number("configure_deadline_s", 0.0, Range::closed(0.01, kMaxDeadlineS));

@@ -92,6 +92,18 @@ TEST(ServerConfig, EachBadValueNamesKeyAndAllowedRange) {
   expect_error("server_id: ''", {"'server_id'", "1 to 64 characters"});
   expect_error("plugin_workers: {liveness_timeout_s: -1}", {"'plugin_workers.liveness_timeout_s'", "allowed: [0, 86400]"});
   EXPECT_DOUBLE_EQ(ServerConfig::parse("", "t.yaml", kBase).plugin_workers.liveness_timeout_s, 0.7);
+  expect_error("plugin_workers: {sessions_per_worker: many}",
+               {"'plugin_workers.sessions_per_worker'", "'many'", "allowed: auto or 1..100000"});
+  expect_error("plugin_workers: {sessions_per_worker: 0}", {"'plugin_workers.sessions_per_worker'", "[1, 100000]"});
+  expect_error("plugin_workers: {workers_per_plugin: -1}", {"'plugin_workers.workers_per_plugin'", "[0, 10000]"});
+  const auto parse = [](const std::string& yaml) { return ServerConfig::parse(yaml, "t.yaml", kBase).plugin_workers; };
+  EXPECT_EQ(parse("").sessions_per_worker, locd::server::WorkerSettings::kAuto);
+  EXPECT_EQ(parse("plugin_workers: {sessions_per_worker: auto}").sessions_per_worker, locd::server::WorkerSettings::kAuto);
+  EXPECT_EQ(parse("plugin_workers: {sessions_per_worker: 50}").sessions_per_worker, 50u);
+  EXPECT_EQ(parse("plugin_workers: {sessions_per_worker: 1, plugins: {grid_mcl: {sessions_per_worker: auto}}}")
+                .sessions_per_worker_of("grid_mcl"),
+            locd::server::WorkerSettings::kAuto);
+  EXPECT_EQ(parse("plugin_workers: {workers_per_plugin: 3}").auto_worker_cap(), 3u);
   EXPECT_DOUBLE_EQ(
       ServerConfig::parse("plugin_workers: {liveness_timeout_s: 2}", "t.yaml", kBase).plugin_workers.liveness_timeout_s,
       2.0);

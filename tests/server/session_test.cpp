@@ -667,4 +667,29 @@ TEST_F(SessionTest, AnotherSessionsCrashRestartsThisOneAtOnceWithoutCountingAFai
   culprit->stop(2, "done");
 }
 
+TEST_F(SessionTest, AutomaticPlacementKeepsRobotsAloneUpToTheCapThenSharesTheWorkers) {
+  // sessions_per_worker: auto (the default): each robot gets a worker of its own until the plugin
+  // has workers_per_plugin of them; later robots join the least-loaded one, and the number of
+  // processes (and their wake-ups) stays bounded however large the fleet.
+  WorkerSettings settings;
+  settings.executable = LOCD_WORKER_EXECUTABLE;
+  ASSERT_EQ(settings.sessions_per_worker, WorkerSettings::kAuto);
+  settings.workers_per_plugin = 2;
+  workers_ = std::make_unique<PluginWorkers>(settings, Limits{}, logger_);
+  pool_ = std::make_unique<WorkerPool>(2);
+  environment_ = std::make_unique<SessionEnvironment>(
+      SessionEnvironment{*workers_, *pool_, sink_, 16, FailurePolicy{}, worker::ConfigureRequest{}, nullptr});
+  std::vector<std::shared_ptr<Session>> sessions;
+  for (int k = 0; k < 5; ++k) {
+    auto s = std::make_shared<Session>("robot" + std::to_string(k), *environment_, nullptr);
+    const uint64_t generation = s->begin_request(1);
+    s->start(generation, 1, catalog_.require("faulty"), PluginConfigText{faulty(""), "test", {}}, "test");
+    ASSERT_TRUE(sink_.wait_status(s->robot_id(), [](const auto& st) { return st.state == SessionState::kRunning; }));
+    sessions.push_back(s);
+    EXPECT_EQ(workers_->worker_count(), std::min<size_t>(k + 1, 2)) << "after " << k + 1 << " robots";
+  }
+  for (auto& s : sessions) s->stop(2, "done");
+  EXPECT_GE(WorkerSettings{}.auto_worker_cap(), 8u);
+}
+
 }  // namespace

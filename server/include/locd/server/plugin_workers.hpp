@@ -28,7 +28,11 @@ namespace locd::server {
 
 struct WorkerSettings {
   std::filesystem::path executable;  // locd-worker
-  size_t sessions_per_worker = 1;    // instances of one plugin sharing a process
+  // Instances of one plugin sharing a process; kAuto: each robot alone while the plugin has fewer
+  // than workers_per_plugin workers, then every new session joins the plugin's least-loaded one.
+  static constexpr size_t kAuto = 0;
+  size_t sessions_per_worker = kAuto;
+  size_t workers_per_plugin = 0;     // the cap of kAuto; 0: max(8, 4 x this machine's cores)
   double configure_deadline_s = 120.0;
   double update_deadline_s = 10.0;   // update, set_pose, save_map, release
   long memory_limit_mb = 4096;       // address space of a worker (RLIMIT_AS); 0 = unbounded
@@ -44,7 +48,8 @@ struct WorkerSettings {
   };
   std::map<std::string, Override> plugins;
 
-  size_t sessions_per_worker_of(const std::string& plugin) const;
+  size_t sessions_per_worker_of(const std::string& plugin) const;  // kAuto or a fixed count
+  size_t auto_worker_cap() const;
   double deadline_s(const std::string& plugin, worker::Op op) const;
 };
 
@@ -141,6 +146,7 @@ class PluginWorkers {
   std::vector<std::shared_ptr<SpawnRequest>> spawns_;
   uint64_t next_instance_ = 1;
   uint64_t next_worker_key_ = 1;
+  std::map<std::string, size_t> spawning_;  // per plugin: workers being started for create_instance
   bool stopping_ = false;
   bool stopped_ = false;
   std::chrono::steady_clock::time_point last_liveness_check_{};  // I/O thread only
