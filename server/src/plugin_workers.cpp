@@ -343,6 +343,30 @@ uint64_t PluginWorkers::create_instance(const std::shared_ptr<const PluginLibrar
   return instance;
 }
 
+bool PluginWorkers::configure(uint64_t instance, const worker::ConfigureRequest& request, std::string what) {
+  std::string frame;
+  worker::append_configure(frame, instance, request);
+  return send(instance, worker::Op::kConfigure, std::move(frame), std::move(what));
+}
+
+bool PluginWorkers::set_pose(uint64_t instance, const PoseEstimate& pose, std::string what) {
+  std::string frame;
+  worker::append_set_pose(frame, instance, pose);
+  return send(instance, worker::Op::kSetPose, std::move(frame), std::move(what));
+}
+
+bool PluginWorkers::update(uint64_t instance, const Measurement& measurement, std::string what) {
+  std::string frame;
+  worker::append_update(frame, instance, measurement);
+  return send(instance, worker::Op::kUpdate, std::move(frame), std::move(what));
+}
+
+bool PluginWorkers::save_map(uint64_t instance, std::string what) {
+  std::string frame;
+  worker::append_request(frame, instance, worker::Op::kSaveMap);
+  return send(instance, worker::Op::kSaveMap, std::move(frame), std::move(what));
+}
+
 bool PluginWorkers::send(uint64_t instance, worker::Op op, std::string frame, std::string what) {
   std::shared_ptr<Worker> w;
   {

@@ -314,12 +314,10 @@ void Session::configure_on_worker(Pending pending) {
       worker::ConfigureRequest request = env_.configure_template;
       request.robot_id = robot_id_;
       request.config = pending.plugin.config;
-      std::string frame;
-      worker::append_configure(frame, instance, request);
       pending_ = std::move(pending);
       // If the worker is already gone, its loss reaches on_lost and is handled there.
-      env_.workers.send(instance, worker::Op::kConfigure, std::move(frame),
-                        "configure of plugin '" + pending_->plugin.name + "' for robot '" + robot_id_ + "'");
+      env_.workers.configure(instance, request,
+                             "configure of plugin '" + pending_->plugin.name + "' for robot '" + robot_id_ + "'");
     }
   }
   finish(out);
@@ -443,8 +441,6 @@ void Session::pump_locked() {
   InFlight next;
   next.instance = instance;
   next.plugin = current_->name;
-  std::string frame;
-  worker::Op op = worker::Op::kUpdate;
   if (!control_.empty()) {
     auto next_control = control_.begin();
     if (next_control->kind == Control::Kind::kResumePose && queue_.empty()) {
@@ -458,8 +454,6 @@ void Session::pump_locked() {
     control_.erase(next_control);
     switch (control.kind) {
       case Control::Kind::kSaveMap:
-        op = worker::Op::kSaveMap;
-        worker::append_request(frame, instance, op);
         next.what = "map save request " + std::to_string(control.request_id);
         break;
       case Control::Kind::kResumePose:
@@ -472,8 +466,6 @@ void Session::pump_locked() {
         control.pose = pose_at_next_message_locked();
         [[fallthrough]];
       case Control::Kind::kInitialPose:
-        op = worker::Op::kSetPose;
-        worker::append_set_pose(frame, instance, control.pose);
         next.what = std::string(control.kind == Control::Kind::kInitialPose ? "initial pose" : "resumed pose") +
                     " stamped " + stamp_text(control.pose.header.stamp_ns);
         break;
@@ -482,18 +474,21 @@ void Session::pump_locked() {
   } else if (!queue_.empty()) {
     next.measurement.emplace(std::move(queue_.front()));
     queue_.pop_front();
-    worker::append_update(frame, instance, *next.measurement);
     next.what = std::string("update of ") + topic_of(kind_of(*next.measurement)) + " stamped " +
                 stamp_text(header_of(*next.measurement).stamp_ns);
     if (const auto* odometry = std::get_if<Odometry>(&*next.measurement)) last_odometry_sent_ = *odometry;
   } else {
     return;
   }
-  const std::string what = next.what;
   in_flight_ = std::move(next);
-  if (!env_.workers.send(instance, op, std::move(frame), what)) {
-    // The worker is gone; on_lost puts the request back or drops it.
-    return;
+  // If the worker is gone, on_lost puts the request back or drops it.
+  const InFlight& f = *in_flight_;
+  if (f.measurement) {
+    env_.workers.update(instance, *f.measurement, f.what);
+  } else if (f.control->kind == Control::Kind::kSaveMap) {
+    env_.workers.save_map(instance, f.what);
+  } else {
+    env_.workers.set_pose(instance, f.control->pose, f.what);
   }
 }
 

@@ -85,10 +85,14 @@ class PluginWorkers {
   // A new instance of `library`'s plugin on a worker of that plugin with room, started when none
   // has. Throws std::runtime_error when no worker can be started.
   uint64_t create_instance(const std::shared_ptr<const PluginLibrary>& library, std::weak_ptr<InstanceOwner> owner);
-  // Queues a request frame for `instance` (worker_protocol's append_*). `what` names it in
-  // messages should the worker die or hang on it ("update of locd/scan at 12.300000 s").
-  // Returns false when the instance is gone (its loss is reported to the owner).
-  bool send(uint64_t instance, worker::Op op, std::string frame, std::string what);
+  // The requests of an instance, encoded here (the worker channel has one owner: this class
+  // writes every frame and reads every reply). `what` names the request in messages should the
+  // worker die or hang on it ("update of locd/scan at 12.300000 s"). Each returns false when the
+  // instance is gone (its loss is reported to the owner); the reply reaches the owner's on_reply.
+  bool configure(uint64_t instance, const worker::ConfigureRequest& request, std::string what);
+  bool set_pose(uint64_t instance, const PoseEstimate& pose, std::string what);
+  bool update(uint64_t instance, const Measurement& measurement, std::string what);
+  bool save_map(uint64_t instance, std::string what);
   // Sends kRelease and forgets the instance: its owner hears nothing more of it.
   void release(uint64_t instance);
   // Runs `task` on the I/O thread after `delay` (restart backoff). Dropped at shutdown.
@@ -102,6 +106,8 @@ class PluginWorkers {
   size_t worker_count() const;
 
  private:
+  // Queues an encoded request frame for `instance`.
+  bool send(uint64_t instance, worker::Op op, std::string frame, std::string what);
   struct Worker;
   struct Timer {
     std::chrono::steady_clock::time_point due;
