@@ -20,8 +20,9 @@
 #include <thread>
 #include <vector>
 
-#include "locd/sdk/plugin_loader.hpp"
 #include "locd/server/log.hpp"
+#include "locd/server/plugin_index.hpp"
+#include "locd/server/worker_launch.hpp"
 #include "locd/server/worker_protocol.hpp"
 
 namespace locd::server {
@@ -43,6 +44,9 @@ struct WorkerSettings {
     std::optional<double> update_deadline_s;
   };
   std::map<std::string, Override> plugins;
+  // What workers may read and write (filled from the server's directories), and whether they
+  // confine themselves at all (config `plugin_workers.sandbox`; off only to measure its cost).
+  SandboxPaths sandbox;
 
   size_t sessions_per_worker_of(const std::string& plugin) const;
   double deadline_s(const std::string& plugin, worker::Op op) const;
@@ -77,9 +81,9 @@ class PluginWorkers {
   PluginWorkers(const PluginWorkers&) = delete;
   PluginWorkers& operator=(const PluginWorkers&) = delete;
 
-  // A new instance of `library`'s plugin on a worker of that plugin with room, started when none
+  // A new instance of `plugin` on a worker of that plugin with room, started when none
   // has. Throws std::runtime_error when no worker can be started.
-  uint64_t create_instance(const std::shared_ptr<const PluginLibrary>& library, std::weak_ptr<InstanceOwner> owner);
+  uint64_t create_instance(const std::shared_ptr<const PluginDescription>& plugin, std::weak_ptr<InstanceOwner> owner);
   // Queues a request frame for `instance` (worker_protocol's append_*). `what` names it in
   // messages should the worker die or hang on it ("update of locd/scan at 12.300000 s").
   // Returns false when the instance is gone (its loss is reported to the owner).
@@ -104,8 +108,8 @@ class PluginWorkers {
   };
 
   struct SpawnRequest;
-  std::shared_ptr<Worker> start_worker(const std::shared_ptr<const PluginLibrary>& library);
-  std::shared_ptr<Worker> start_worker_on_io_thread(const std::shared_ptr<const PluginLibrary>& library);
+  std::shared_ptr<Worker> start_worker(const std::shared_ptr<const PluginDescription>& plugin);
+  std::shared_ptr<Worker> start_worker_on_io_thread(const std::shared_ptr<const PluginDescription>& plugin);
   void run_spawn_requests();
   void run();
   void read_from(const std::shared_ptr<Worker>& worker);
@@ -118,6 +122,7 @@ class PluginWorkers {
   // Pings the workers and kills one that stopped answering (liveness_timeout_s).
   void check_liveness();
   void read_liveness(const std::shared_ptr<Worker>& worker);
+  void read_stderr(const std::shared_ptr<Worker>& worker);
   void run_due_timers();
   int next_wait_ms() const;
   std::shared_ptr<Worker> worker_by_key(uint64_t key) const;
