@@ -5,19 +5,22 @@
 
 #include <cerrno>
 #include <chrono>
+#include <condition_variable>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <iostream>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "locd/dds/dds.hpp"
-#include "locd/sdk/plugin_loader.hpp"
 #include "locd/server/dds_bridge.hpp"
 #include "locd/server/dds_log.hpp"
 #include "locd/server/log.hpp"
+#include "locd/server/plugin_index.hpp"
+#include "locd/server/plugin_workers.hpp"
 #include "locd/server/ros2_bridge.hpp"
 #include "locd/server/server.hpp"
 #include "locd/server/server_config.hpp"
@@ -125,19 +128,66 @@ ServerConfig load_config(const Options& o) {
   return config;
 }
 
-// Configures every boot session's plugin once, as the server would, and releases it.
-void check_boot_sessions(const ServerConfig& config, const PluginCatalog& catalog) {
+// Hears the answer to one configure request (check_boot_sessions).
+class ConfigureCheck : public InstanceOwner {
+ public:
+  void on_reply(uint64_t, worker::Reply reply) override {
+    finish(reply.outcome == worker::Outcome::kOk ? "" : reply.message.empty() ? "configure failed" : reply.message);
+  }
+  void on_log(uint64_t, const worker::LogLine&) override {}
+  void on_lost(uint64_t, const WorkerLoss& loss) override { finish(loss.description); }
+  // The error ("" when the plugin took the config).
+  std::string wait() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    done_.wait(lock, [&] { return answered_; });
+    return error_;
+  }
+
+ private:
+  void finish(const std::string& error) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (answered_) return;
+    answered_ = true;
+    error_ = error;
+    done_.notify_all();
+  }
+  std::mutex mutex_;
+  std::condition_variable done_;
+  bool answered_ = false;
+  std::string error_;
+};
+
+// Configures every boot session's plugin once in a worker, as the server would, and releases it:
+// plugin code never runs in locd, not even to check a config.
+void check_boot_sessions(const ServerConfig& config, const PluginIndex& catalog, Logger& logger) {
+  if (config.sessions.empty()) return;
+  PluginWorkers workers(worker_settings(config), config.limits, logger);
   for (const auto& boot : config.sessions) {
-    PluginContext context;
-    context.robot_id = boot.robot_id;
-    context.limits = config.limits;
-    context.maps = MapResolver(config.map_directories);
+    std::string error;
     try {
-      create_configured(catalog, boot.config.plugin, context, boot.config.params);
+      auto check = std::make_shared<ConfigureCheck>();
+      const uint64_t instance = workers.create_instance(catalog.require(boot.config.plugin), check);
+      worker::ConfigureRequest request;
+      request.robot_id = boot.robot_id;
+      request.limits = config.limits;
+      for (const auto& dir : config.map_directories) request.map_directories.push_back(dir.string());
+      request.output_directory = config.output_directory.string();
+      request.config = boot.text;
+      if (!workers.configure(instance, request, "configure of the boot session")) {
+        error = "its worker ended before it could be configured";
+      } else {
+        error = check->wait();
+      }
+      workers.release(instance);
     } catch (const std::exception& e) {
-      throw ConfigError("boot session for robot '" + boot.robot_id + "' (" + boot.source + "): " + e.what());
+      error = e.what();
+    }
+    if (!error.empty()) {
+      workers.shutdown(kWorkerExitGrace);
+      throw ConfigError("boot session for robot '" + boot.robot_id + "' (" + boot.source + "): " + error);
     }
   }
+  workers.shutdown(kWorkerExitGrace);
 }
 
 int check_config(const Options& o) {
@@ -148,8 +198,9 @@ int check_config(const Options& o) {
       throw ConfigError("plugin worker '" + config.plugin_workers.executable.string() +
                         "' not found; install locd-worker next to locd or set plugin_workers.executable");
     }
-    const PluginCatalog catalog(config.plugin_directories);
-    check_boot_sessions(config, catalog);
+    Logger logger(LogLevel::kWarning);  // what the inspectors and workers write to stderr
+    const PluginIndex catalog(config.plugin_directories, inspector_settings(config), logger);
+    check_boot_sessions(config, catalog, logger);
     std::string plugins;
     for (const auto& name : catalog.names()) plugins += (plugins.empty() ? "" : ", ") + name;
     for (const auto& rejected : catalog.rejected()) std::cout << "warning: plugin refused: " << rejected << "\n";
@@ -199,10 +250,11 @@ int run(const Options& o) {
                    "plugin_workers.executable");
     return 1;
   }
-  const PluginCatalog catalog(config.plugin_directories);
+  // Each plugin file is inspected by a sandboxed locd-worker: no plugin code is mapped into locd.
+  const PluginIndex catalog(config.plugin_directories, inspector_settings(config), logger);
   for (const auto& name : catalog.names()) {
-    logger.log(LogLevel::kInfo, "server", "plugin " + name + " " + catalog.find(name)->descriptor().version + " from " +
-                                              catalog.find(name)->file().string());
+    logger.log(LogLevel::kInfo, "server", "plugin " + name + " " + catalog.find(name)->version + " from " +
+                                              catalog.find(name)->file.string());
   }
   for (const auto& rejected : catalog.rejected()) logger.log(LogLevel::kWarning, "server", "plugin refused: " + rejected);
 

@@ -39,7 +39,7 @@ constexpr int kWorkerLivenessFd = 4;
 constexpr auto kPingPeriod = std::chrono::milliseconds(200);
 // What epoll tells about a worker: data.u64 = key * kEventKinds + kind.
 constexpr uint64_t kEventKinds = 4;
-enum EventKind : uint64_t { kChannelEvent = 0, kExitEvent = 1, kLivenessEvent = 2 };
+enum EventKind : uint64_t { kChannelEvent = 0, kExitEvent = 1, kLivenessEvent = 2, kStderrEvent = 3 };
 // After a SIGKILL, how long shutdown waits for the kernel to reap a worker.
 constexpr auto kReapAfterKill = std::chrono::milliseconds(1000);
 
@@ -99,7 +99,7 @@ double WorkerSettings::deadline_s(const std::string& plugin, worker::Op op) cons
 }
 
 struct PluginWorkers::SpawnRequest {
-  std::shared_ptr<const PluginLibrary> library;
+  std::shared_ptr<const PluginDescription> plugin;
   std::promise<std::shared_ptr<Worker>> result;
 };
 
@@ -109,7 +109,9 @@ struct PluginWorkers::Worker {
   int pidfd = -1;
   int fd = -1;
   int liveness_fd = -1;
+  int stderr_fd = -1;  // the worker's stderr: text from outside, logged escaped and rate-limited
   std::string plugin;
+  std::unique_ptr<StderrLines> stderr_lines;  // I/O thread only
 
   struct Request {
     uint64_t instance;
@@ -156,7 +158,7 @@ PluginWorkers::~PluginWorkers() {
   close(wake_);
 }
 
-std::shared_ptr<PluginWorkers::Worker> PluginWorkers::start_worker(const std::shared_ptr<const PluginLibrary>& library) {
+std::shared_ptr<PluginWorkers::Worker> PluginWorkers::start_worker(const std::shared_ptr<const PluginDescription>& plugin) {
   int channel[2], liveness[2];
   if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, channel) != 0) {
     throw std::runtime_error(std::string("cannot make a worker channel: ") + std::strerror(errno));
@@ -167,14 +169,20 @@ std::shared_ptr<PluginWorkers::Worker> PluginWorkers::start_worker(const std::sh
     close(channel[1]);
     throw std::runtime_error(std::string("cannot make a worker's liveness socket: ") + std::strerror(error));
   }
+  int errors[2];
+  if (pipe2(errors, O_CLOEXEC) != 0) {
+    const int error = errno;
+    for (int fd : {channel[0], channel[1], liveness[0], liveness[1]}) close(fd);
+    throw std::runtime_error(std::string("cannot make a worker's stderr pipe: ") + std::strerror(error));
+  }
   const std::string exe = settings_.executable.string();
   const std::string limits = std::to_string(limits_.max_scan_beams) + "," + std::to_string(limits_.max_cloud_points) +
                              "," + std::to_string(limits_.max_image_pixels) + "," +
                              std::to_string(limits_.max_detections) + "," + std::to_string(limits_.max_particles) +
                              "," + std::to_string(limits_.max_map_cells);
-  const std::vector<std::string> arguments = {exe,
+  std::vector<std::string> arguments = {exe,
                                               "--plugin",
-                                              library->file().string(),
+                                              plugin->file.string(),
                                               "--channel-fd",
                                               std::to_string(kWorkerChannelFd),
                                               "--liveness-fd",
@@ -185,9 +193,15 @@ std::shared_ptr<PluginWorkers::Worker> PluginWorkers::start_worker(const std::sh
                                               std::to_string(settings_.memory_limit_mb),
                                               "--limits",
                                               limits};
+  append_sandbox_arguments(arguments, settings_.sandbox);
   std::vector<char*> argv;
   for (const auto& a : arguments) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
+  // No DDS identity, no secrets: only the variables a plugin's libraries use.
+  std::vector<std::string> environment = worker_environment(environ);
+  std::vector<char*> envp;
+  for (auto& e : environment) envp.push_back(e.data());
+  envp.push_back(nullptr);
 
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
@@ -195,6 +209,7 @@ std::shared_ptr<PluginWorkers::Worker> PluginWorkers::start_worker(const std::sh
   posix_spawn_file_actions_adddup2(&actions, liveness[1], kWorkerLivenessFd);
   posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
   posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_adddup2(&actions, errors[1], STDERR_FILENO);
   posix_spawn_file_actions_addclosefrom_np(&actions, kWorkerLivenessFd + 1);
   // A process group of its own (its id is the worker's pid): whatever the plugin forks is in it,
   // and is killed with the worker (PR_SET_PDEATHSIG is not inherited by the plugin's children).
@@ -203,14 +218,16 @@ std::shared_ptr<PluginWorkers::Worker> PluginWorkers::start_worker(const std::sh
   posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
   posix_spawnattr_setpgroup(&attributes, 0);
   pid_t pid = 0;
-  const int rc = posix_spawn(&pid, exe.c_str(), &actions, &attributes, argv.data(), environ);
+  const int rc = posix_spawn(&pid, exe.c_str(), &actions, &attributes, argv.data(), envp.data());
   posix_spawn_file_actions_destroy(&actions);
   posix_spawnattr_destroy(&attributes);
   close(channel[1]);
   close(liveness[1]);
+  close(errors[1]);
   if (rc != 0) {
     close(channel[0]);
     close(liveness[0]);
+    close(errors[0]);
     throw std::runtime_error("cannot start the plugin worker '" + exe + "': " + std::strerror(rc));
   }
   const int pidfd = pidfd_open(pid);
@@ -220,17 +237,22 @@ std::shared_ptr<PluginWorkers::Worker> PluginWorkers::start_worker(const std::sh
     waitpid(pid, nullptr, 0);
     close(channel[0]);
     close(liveness[0]);
+    close(errors[0]);
     throw std::runtime_error(std::string("pidfd_open: ") + std::strerror(error));
   }
   fcntl(channel[0], F_SETFL, fcntl(channel[0], F_GETFL) | O_NONBLOCK);
   fcntl(liveness[0], F_SETFL, fcntl(liveness[0], F_GETFL) | O_NONBLOCK);
+  fcntl(errors[0], F_SETFL, fcntl(errors[0], F_GETFL) | O_NONBLOCK);
 
   auto worker = std::make_shared<Worker>();
   worker->pid = pid;
   worker->pidfd = pidfd;
   worker->fd = channel[0];
   worker->liveness_fd = liveness[0];
-  worker->plugin = library->name();
+  worker->stderr_fd = errors[0];
+  worker->plugin = plugin->name;
+  worker->stderr_lines =
+      std::make_unique<StderrLines>("plugin '" + plugin->name + "' (worker pid " + std::to_string(pid) + ")", logger_);
   // Its first instance is the one it is started for: counted before any other session can see
   // the worker, so sessions_per_worker holds however many sessions start at once.
   worker->instances = 1;
@@ -249,17 +271,20 @@ std::shared_ptr<PluginWorkers::Worker> PluginWorkers::start_worker(const std::sh
   event.events = EPOLLIN;
   event.data.u64 = worker->key * kEventKinds + kLivenessEvent;
   epoll_ctl(epoll_, EPOLL_CTL_ADD, worker->liveness_fd, &event);
+  event.events = EPOLLIN;
+  event.data.u64 = worker->key * kEventKinds + kStderrEvent;
+  epoll_ctl(epoll_, EPOLL_CTL_ADD, worker->stderr_fd, &event);
   logger_.log(LogLevel::kDebug, "server", "started worker pid " + std::to_string(pid) + " for plugin " + worker->plugin);
   return worker;
 }
 
 std::shared_ptr<PluginWorkers::Worker> PluginWorkers::start_worker_on_io_thread(
-    const std::shared_ptr<const PluginLibrary>& library) {
+    const std::shared_ptr<const PluginDescription>& plugin) {
   // A worker dies with the thread that started it (PR_SET_PDEATHSIG), so only the I/O thread,
   // which lives as long as the workers, starts them.
-  if (std::this_thread::get_id() == io_.get_id()) return start_worker(library);
+  if (std::this_thread::get_id() == io_.get_id()) return start_worker(plugin);
   auto request = std::make_shared<SpawnRequest>();
-  request->library = library;
+  request->plugin = plugin;
   auto result = request->result.get_future();
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -279,16 +304,16 @@ void PluginWorkers::run_spawn_requests() {
   }
   for (const auto& request : requests) {
     try {
-      request->result.set_value(start_worker(request->library));
+      request->result.set_value(start_worker(request->plugin));
     } catch (...) {
       request->result.set_exception(std::current_exception());
     }
   }
 }
 
-uint64_t PluginWorkers::create_instance(const std::shared_ptr<const PluginLibrary>& library,
+uint64_t PluginWorkers::create_instance(const std::shared_ptr<const PluginDescription>& plugin,
                                         std::weak_ptr<InstanceOwner> owner) {
-  const size_t capacity = settings_.sessions_per_worker_of(library->name());
+  const size_t capacity = settings_.sessions_per_worker_of(plugin->name);
   std::shared_ptr<Worker> chosen;
   {
     // The slot is taken in the same step as it is found (a worker's count never lags behind the
@@ -296,12 +321,12 @@ uint64_t PluginWorkers::create_instance(const std::shared_ptr<const PluginLibrar
     // started counts against the automatic cap from the moment it is decided.
     std::lock_guard<std::mutex> lock(mutex_);
     if (stopping_) throw std::runtime_error("the server is shutting down");
-    size_t open_workers = spawning_[library->name()];
+    size_t open_workers = spawning_[plugin->name];
     std::shared_ptr<Worker> least_loaded;
     size_t least_instances = 0;
     for (const auto& [_, w] : workers_) {
       std::lock_guard<std::mutex> worker_lock(w->mutex);
-      if (w->plugin != library->name() || w->closed) continue;
+      if (w->plugin != plugin->name || w->closed) continue;
       ++open_workers;
       if (capacity != WorkerSettings::kAuto && w->instances < capacity) {
         ++w->instances;
@@ -320,7 +345,7 @@ uint64_t PluginWorkers::create_instance(const std::shared_ptr<const PluginLibrar
         chosen = least_loaded;
       }
     }
-    if (!chosen) ++spawning_[library->name()];
+    if (!chosen) ++spawning_[plugin->name];
   }
   if (!chosen) {
     struct Spawned {
@@ -330,8 +355,8 @@ uint64_t PluginWorkers::create_instance(const std::shared_ptr<const PluginLibrar
         std::lock_guard<std::mutex> lock(self.mutex_);
         --self.spawning_[plugin];
       }
-    } spawned{*this, library->name()};
-    chosen = start_worker_on_io_thread(library);
+    } spawned{*this, plugin->name};
+    chosen = start_worker_on_io_thread(plugin);
   }
   std::lock_guard<std::mutex> lock(mutex_);
   if (!workers_.count(chosen->key)) {
@@ -569,9 +594,13 @@ void PluginWorkers::reap(const std::shared_ptr<Worker>& w) {
   epoll_ctl(epoll_, EPOLL_CTL_DEL, w->fd, nullptr);
   epoll_ctl(epoll_, EPOLL_CTL_DEL, w->pidfd, nullptr);
   epoll_ctl(epoll_, EPOLL_CTL_DEL, w->liveness_fd, nullptr);
+  read_stderr(w);  // what it wrote last (its own dying words; what its children write later is lost)
+  epoll_ctl(epoll_, EPOLL_CTL_DEL, w->stderr_fd, nullptr);
+  w->stderr_lines->finish();
   close(w->fd);
   close(w->pidfd);
   close(w->liveness_fd);
+  close(w->stderr_fd);
 
   std::vector<std::pair<uint64_t, std::weak_ptr<InstanceOwner>>> lost;
   bool stopping = false;
@@ -705,6 +734,22 @@ void PluginWorkers::read_liveness(const std::shared_ptr<Worker>& w) {
   }
 }
 
+void PluginWorkers::read_stderr(const std::shared_ptr<Worker>& w) {
+  // At most a few chunks per wake-up: a worker that floods its stderr cannot hold the I/O thread
+  // (the pipe fills and the worker blocks on its own writes).
+  char chunk[4096];
+  for (int reads = 0; reads < 4; ++reads) {
+    const ssize_t n = ::read(w->stderr_fd, chunk, sizeof chunk);
+    if (n > 0) {
+      w->stderr_lines->append(chunk, static_cast<size_t>(n));
+      continue;
+    }
+    if (n < 0 && errno == EINTR) continue;
+    if (n == 0) epoll_ctl(epoll_, EPOLL_CTL_DEL, w->stderr_fd, nullptr);  // closed: the worker and its children are gone
+    return;
+  }
+}
+
 void PluginWorkers::run_due_timers() {
   std::vector<std::function<void()>> due;
   {
@@ -758,6 +803,10 @@ void PluginWorkers::run() {
       }
       if (key % kEventKinds == kLivenessEvent) {
         read_liveness(w);
+        continue;
+      }
+      if (key % kEventKinds == kStderrEvent) {
+        read_stderr(w);
         continue;
       }
       if (events[i].events & EPOLLOUT) flush(w);

@@ -55,17 +55,15 @@ worker::ConfigureRequest configure_template(const ServerConfig& config) {
 }
 
 // What the server announces (built once: the config and the catalog do not change).
-ServerInfoReport make_info(const ServerConfig& config, const PluginCatalog& catalog, int64_t started_ns) {
+ServerInfoReport make_info(const ServerConfig& config, const PluginIndex& catalog, int64_t started_ns) {
   ServerInfoReport info;
   info.server_id = config.server_id;
   info.started_ns = started_ns;
   info.weight = config.weight;
   info.server_group = config.server_group;
   for (const auto& name : catalog.names()) {
-    const auto library = catalog.find(name);
-    const auto& d = library->descriptor();
-    info.plugins.push_back({d.name, d.version ? d.version : "", d.description ? d.description : "",
-                            kind_names(d.consumes)});
+    const auto d = catalog.find(name);
+    info.plugins.push_back({d->name, d->version, d->description, kind_names(d->consumes)});
   }
   info.rejected_plugins = catalog.rejected();
   return info;
@@ -73,9 +71,9 @@ ServerInfoReport make_info(const ServerConfig& config, const PluginCatalog& cata
 
 }  // namespace
 
-Server::Server(ServerConfig config, const PluginCatalog& catalog, OutputSink& sink, Logger& logger)
+Server::Server(ServerConfig config, const PluginIndex& catalog, OutputSink& sink, Logger& logger)
     : config_(std::move(config)), catalog_(catalog), sink_(sink), logger_(logger),
-      pool_(static_cast<size_t>(config_.workers)), workers_(config_.plugin_workers, config_.limits, logger_),
+      pool_(static_cast<size_t>(config_.workers)), workers_(worker_settings(config_), config_.limits, logger_),
       environment_{workers_, pool_, sink_, static_cast<size_t>(config_.queue_depth), config_.failures,
                    configure_template(config_), nullptr},
       state_file_(config_.state_directory), started_ns_(wall_clock_ns()), started_(std::chrono::steady_clock::now()),
@@ -558,9 +556,9 @@ void Server::handle_start(const std::shared_ptr<Session>& session, uint64_t gene
 
 void Server::start_plugin(const std::shared_ptr<Session>& session, uint64_t generation, uint64_t request_id,
                           const std::string& plugin, const PluginConfigText& text, const std::string& source) {
-  std::shared_ptr<const PluginLibrary> library;
+  std::shared_ptr<const PluginDescription> description;
   try {
-    library = catalog_.require(plugin);
+    description = catalog_.require(plugin);
     // The parts kept beside the plugin (a robot's ROS 2 topics) follow the config before it is
     // sent to a worker; they may refuse it. (A switch that then fails in the worker keeps the
     // running plugin with the new config's ROS 2 topics.)
@@ -570,7 +568,7 @@ void Server::start_plugin(const std::shared_ptr<Session>& session, uint64_t gene
     session->publish_status();
     return;
   }
-  session->start(generation, request_id, std::move(library), text, source);
+  session->start(generation, request_id, std::move(description), text, source);
 }
 
 void Server::abandon_if_failed(const std::shared_ptr<Session>& session, uint64_t generation) {

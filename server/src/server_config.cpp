@@ -102,7 +102,7 @@ size_t sessions_per_worker(const Params& p) {
 
 void parse_plugin_workers(const Params& p, const fs::path& base, ServerConfig& c) {
   p.expect_only({"executable", "sessions_per_worker", "workers_per_plugin", "configure_deadline_s", "update_deadline_s", "memory_limit_mb",
-                 "liveness_timeout_s", "max_failures", "restart_backoff_s", "failure_reset_s", "plugins"});
+                 "liveness_timeout_s", "max_failures", "restart_backoff_s", "failure_reset_s", "plugins", "sandbox"});
   WorkerSettings& w = c.plugin_workers;
   if (p.has("executable")) {
     const fs::path exe(p.text("executable", ""));
@@ -118,6 +118,7 @@ void parse_plugin_workers(const Params& p, const fs::path& base, ServerConfig& c
   if (w.memory_limit_mb > 0 && w.memory_limit_mb < 64) {
     p.fail("memory_limit_mb", "= " + std::to_string(w.memory_limit_mb) + " is too small to load a plugin; allowed: 0 (no limit) or 64..");
   }
+  w.sandbox.enabled = p.flag("sandbox", true);
   w.liveness_timeout_s = p.number("liveness_timeout_s", w.liveness_timeout_s, Range::closed(0.0, kMaxDeadlineS));
   FailurePolicy& f = c.failures;
   f.max_failures = static_cast<uint32_t>(p.integer("max_failures", f.max_failures, 1, 1000));
@@ -156,6 +157,24 @@ fs::path default_worker_executable() {
   std::error_code ec;
   const fs::path self = fs::read_symlink("/proc/self/exe", ec);
   return ec ? fs::path("locd-worker") : self.parent_path() / "locd-worker";
+}
+
+WorkerSettings worker_settings(const ServerConfig& config) {
+  WorkerSettings settings = config.plugin_workers;
+  settings.sandbox.readable = config.plugin_directories;
+  settings.sandbox.readable.insert(settings.sandbox.readable.end(), config.map_directories.begin(),
+                                   config.map_directories.end());
+  settings.sandbox.writable = config.output_directory;
+  return settings;
+}
+
+InspectorSettings inspector_settings(const ServerConfig& config) {
+  InspectorSettings settings;
+  settings.executable = config.plugin_workers.executable;
+  settings.sandbox = worker_settings(config).sandbox;
+  settings.timeout_s = config.plugin_workers.configure_deadline_s;
+  settings.memory_limit_mb = config.plugin_workers.memory_limit_mb;
+  return settings;
 }
 
 std::string default_server_id() {

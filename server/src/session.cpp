@@ -277,12 +277,12 @@ uint64_t Session::begin_request(uint64_t request_id) {
   return generation;
 }
 
-void Session::start(uint64_t generation, uint64_t request_id, std::shared_ptr<const PluginLibrary> library,
+void Session::start(uint64_t generation, uint64_t request_id, std::shared_ptr<const PluginDescription> plugin,
                     PluginConfigText config, const std::string& source) {
   Pending pending;
   pending.generation = generation;
-  pending.plugin.name = library->name();
-  pending.plugin.library = std::move(library);
+  pending.plugin.name = plugin->name;
+  pending.plugin.description = std::move(plugin);
   pending.plugin.config = std::move(config);
   pending.plugin.source = source;
   pending.plugin.request_id = request_id;
@@ -294,7 +294,7 @@ void Session::configure_on_worker(Pending pending) {
   uint64_t instance = 0;
   std::string error;
   try {
-    instance = env_.workers.create_instance(pending.plugin.library, weak_from_this());
+    instance = env_.workers.create_instance(pending.plugin.description, weak_from_this());
   } catch (const std::exception& e) {
     error = std::string("plugin '") + pending.plugin.name + "' could not be started: " + e.what();
   }
@@ -560,8 +560,7 @@ void Session::handle_configured_locked(Pending pending, worker::Reply& reply, Pu
     failed_request_id_.reset();
     request_id_ = current_->request_id;
     request_ok_ = true;
-    const char* version = current_->library->descriptor().version;
-    message_ = "plugin " + plugin + " " + (version ? version : "") + " configured from " + current_->source;
+    message_ = "plugin " + plugin + " " + current_->description->version + " configured from " + current_->source;
     if (previous.empty()) {
       out.log.emplace_back(LogLevel::kInfo, "session started: plugin " + plugin);
     } else {

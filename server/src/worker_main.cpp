@@ -3,12 +3,20 @@
 // process (locd restarts them from their last pose). Started by locd only:
 //
 //   locd-worker --plugin FILE --channel-fd 3 --liveness-fd 4 --parent PID --memory-limit-mb N
-//               --limits B,P,I,D,PA,M
+//               --limits B,P,I,D,PA,M --sandbox on|off [--read DIR]... [--write DIR]
+//   locd-worker --inspect FILE --memory-limit-mb N --sandbox on|off [--read DIR]...
+//
+// Before it loads the plugin (whose static constructors run then) it confines itself
+// (worker_sandbox.hpp): --read names the directories it may read besides the system's (plugins,
+// maps), --write the one it may write (the output directory). --inspect loads the plugin, prints
+// its descriptor (plugin_index.hpp) on stdout and exits: locd learns its catalog so, without
+// mapping any plugin code itself.
 //
 // It reads requests from the channel (worker_protocol.hpp), one at a time, and answers each
 // before reading the next; a thread of its own answers locd's liveness pings. It runs in a
 // process group of its own (locd starts it so), and ends when locd closes the channel, and
 // with locd: then everything in its group (what the plugin forked) is killed too.
+#include <fcntl.h>
 #include <pthread.h>
 #include <signal.h>
 #include <sys/prctl.h>
@@ -25,17 +33,26 @@
 #include <map>
 #include <new>
 #include <string>
+#include <vector>
 
 #include "locd/sdk/plugin_loader.hpp"
+#include "locd/sdk/text.hpp"
 #include "locd/server/worker_protocol.hpp"
+#include "locd/server/worker_sandbox.hpp"
 
 namespace {
 
 using namespace locd;
 using namespace locd::server::worker;
+using locd::server::confine_worker;
+using locd::server::WorkerConfinement;
 
 struct Arguments {
   std::string plugin_file;
+  bool inspect = false;
+  bool sandbox = true;
+  std::vector<std::filesystem::path> readable;
+  std::filesystem::path writable;
   int channel = -1;
   int liveness = -1;
   pid_t parent = 0;
@@ -81,6 +98,10 @@ Arguments parse_arguments(int argc, char** argv) {
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string flag = argv[i], value = argv[i + 1];
     if (flag == "--plugin") a.plugin_file = value;
+    else if (flag == "--inspect") a.plugin_file = value, a.inspect = true;
+    else if (flag == "--sandbox" && (value == "on" || value == "off")) a.sandbox = value == "on";
+    else if (flag == "--read") a.readable.emplace_back(value);
+    else if (flag == "--write") a.writable = value;
     else if (flag == "--channel-fd") a.channel = static_cast<int>(parse_size(value, "channel fd"));
     else if (flag == "--liveness-fd") a.liveness = static_cast<int>(parse_size(value, "liveness fd"));
     else if (flag == "--parent") a.parent = static_cast<pid_t>(parse_size(value, "parent pid"));
@@ -88,6 +109,7 @@ Arguments parse_arguments(int argc, char** argv) {
     else if (flag == "--limits") a.limits = parse_limits(value);
     else die(kExitCannotStart, "unknown option " + flag + " (locd-worker is started by locd)");
   }
+  if (a.inspect && !a.plugin_file.empty()) return a;
   if (a.plugin_file.empty() || a.channel < 0 || a.parent <= 0) {
     die(kExitCannotStart, "needs --plugin, --channel-fd and --parent (locd-worker is started by locd)");
   }
@@ -113,8 +135,10 @@ void confine(const Arguments& a) {
   death.sa_handler = on_parent_death;
   sigemptyset(&death.sa_mask);
   sigaction(kParentDeathSignal, &death, nullptr);
-  prctl(PR_SET_PDEATHSIG, kParentDeathSignal);
-  if (getppid() != a.parent) _exit(0);  // locd died before the line above took effect
+  if (a.parent > 0) {
+    prctl(PR_SET_PDEATHSIG, kParentDeathSignal);
+    if (getppid() != a.parent) _exit(0);  // locd died before the line above took effect
+  }
   std::ofstream("/proc/self/oom_score_adj") << "1000\n";
   const rlimit no_core{0, 0};
   setrlimit(RLIMIT_CORE, &no_core);
@@ -124,6 +148,42 @@ void confine(const Arguments& a) {
     if (setrlimit(RLIMIT_AS, &address_space) != 0) die(kExitCannotStart, std::string("setrlimit: ") + std::strerror(errno));
   }
   signal(SIGPIPE, SIG_IGN);
+  if (!a.sandbox) return;
+  WorkerConfinement confinement;
+  confinement.readable = a.readable;
+  confinement.readable.push_back(std::filesystem::path(a.plugin_file).parent_path());
+  confinement.writable = a.writable;
+  try {
+    for (const auto& notice : confine_worker(confinement)) {
+      std::fprintf(stderr, "locd-worker[%d]: %s\n", static_cast<int>(getpid()), notice.c_str());
+    }
+  } catch (const std::exception& e) {
+    die(kExitCannotStart, std::string("cannot confine the worker: ") + e.what());
+  }
+}
+
+// --inspect: the plugin's descriptor on the stdout locd reads (plugin_index.hpp); the plugin's
+// own writes to fd 1 go to /dev/null. A refusal is one line "error TEXT".
+int inspect(const Arguments& a) {
+  const int out = dup(STDOUT_FILENO);
+  const int null = open("/dev/null", O_WRONLY | O_CLOEXEC);
+  if (out < 0 || null < 0 || dup2(null, STDOUT_FILENO) < 0) die(kExitCannotStart, "cannot set up stdout");
+  close(null);
+  FILE* report = fdopen(out, "w");
+  if (!report) die(kExitCannotStart, "cannot set up stdout");
+  try {
+    const auto library = PluginLibrary::open(a.plugin_file);
+    const auto& d = library->descriptor();
+    std::fprintf(report, "locd-plugin-inspection 1\nname %s\nversion %s\ndescription %s\nconsumes %u\n",
+                 escaped(d.name, 64).c_str(), escaped(d.version ? d.version : "", 64).c_str(),
+                 escaped(d.description ? d.description : "", 512).c_str(), static_cast<unsigned>(d.consumes));
+    std::fflush(report);
+    _exit(0);  // no plugin destructor runs
+  } catch (const std::exception& e) {
+    std::fprintf(report, "error %s\n", escaped(e.what(), 1024).c_str());
+    std::fflush(report);
+    _exit(kExitCannotStart);
+  }
 }
 
 // Answers locd's liveness pings (a byte each) from a thread of its own, so a plugin busy with a
@@ -341,6 +401,7 @@ class Worker {
 int main(int argc, char** argv) {
   Arguments arguments = parse_arguments(argc, argv);
   confine(arguments);
+  if (arguments.inspect) return inspect(arguments);
   start_answering_pings(arguments.liveness);
   std::shared_ptr<PluginLibrary> library;
   try {

@@ -5,6 +5,8 @@
 
 #include <cstring>
 #include <filesystem>
+#include <unistd.h>
+
 #include <fstream>
 #include <random>
 
@@ -89,6 +91,15 @@ std::vector<std::pair<uint16_t, std::vector<uint8_t>>> read_all(const fs::path& 
 }
 
 }  // namespace
+
+TEST(Mcap, RecordingsAreReadableByTheirOwnerOnly) {
+  const fs::path path = fs::temp_directory_path() / ("mcap_mode_" + std::to_string(::getpid()) + ".mcap");
+  { std::ofstream(path) << "old"; }
+  fs::permissions(path, fs::perms::all);  // an existing world-readable file is overwritten 0600 too
+  write_file(path, Compression::kNone, 5);
+  EXPECT_EQ(fs::status(path).permissions() & fs::perms::all, fs::perms::owner_read | fs::perms::owner_write);
+  fs::remove(path);
+}
 
 TEST(Mcap, RoundTripEveryCompression) {
   for (Compression c : {Compression::kNone, Compression::kZstd, Compression::kLz4}) {

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <thread>
 
+#include "test_plugin_index.hpp"
 #include "locd/server/server.hpp"
 #include "recording_sink.hpp"
 
@@ -18,7 +19,7 @@ using locd::server::test::RecordingSink;
 
 class ServerRouterTest : public ::testing::Test {
  protected:
-  ServerRouterTest() : catalog_({LOCD_BROKEN_PLUGIN_DIR}) {
+  ServerRouterTest() : catalog_(locd::server::test::plugin_index(LOCD_BROKEN_PLUGIN_DIR)) {
     config_.server_id = "router-test";
     config_.queue_depth = 32;
     config_.plugin_workers.executable = LOCD_WORKER_EXECUTABLE;
@@ -41,7 +42,7 @@ class ServerRouterTest : public ::testing::Test {
   }
 
   ServerConfig config_;
-  PluginCatalog catalog_;
+  PluginIndex catalog_;
   RecordingSink sink_;
   Logger logger_;
   std::unique_ptr<Server> server_;

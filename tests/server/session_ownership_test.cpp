@@ -5,6 +5,7 @@
 
 #include <thread>
 
+#include "test_plugin_index.hpp"
 #include "locd/server/dds_log.hpp"
 #include "locd/server/server.hpp"
 #include "locd/server/writer_presence.hpp"
@@ -42,7 +43,7 @@ TEST(RobotWriterPresence, BeyondItsBoundANewRobotIsNotTracked) {
 
 class SessionOwnershipTest : public ::testing::Test {
  protected:
-  SessionOwnershipTest() : catalog_({LOCD_BROKEN_PLUGIN_DIR}) {
+  SessionOwnershipTest() : catalog_(locd::server::test::plugin_index(LOCD_BROKEN_PLUGIN_DIR)) {
     config_.server_id = "ownership-test";
     config_.session_grace_s = 0.2;
     config_.plugin_workers.executable = LOCD_WORKER_EXECUTABLE;
@@ -64,7 +65,7 @@ class SessionOwnershipTest : public ::testing::Test {
   }
 
   ServerConfig config_;
-  PluginCatalog catalog_;
+  PluginIndex catalog_;
   RecordingSink sink_;
   Logger logger_;
   std::unique_ptr<Server> server_;

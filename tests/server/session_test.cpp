@@ -12,6 +12,7 @@
 #include <signal.h>
 #include <thread>
 
+#include "test_plugin_index.hpp"
 #include "locd/server/session.hpp"
 #include "recording_sink.hpp"
 
@@ -50,7 +51,7 @@ std::string faulty(const std::string& params) { return "plugin: faulty\nparams: 
 
 class SessionTest : public ::testing::Test {
  protected:
-  SessionTest() : catalog_({LOCD_BROKEN_PLUGIN_DIR}) {}
+  SessionTest() : catalog_(locd::server::test::plugin_index(LOCD_BROKEN_PLUGIN_DIR)) {}
 
   std::shared_ptr<Session> make(size_t depth, FailurePolicy failures = {}, double update_deadline_s = 10.0) {
     WorkerSettings settings;
@@ -129,7 +130,7 @@ class SessionTest : public ::testing::Test {
     if (pool_) pool_->shutdown();
   }
 
-  PluginCatalog catalog_;
+  PluginIndex catalog_;
   Logger logger_{LogLevel::kError};
   RecordingSink sink_;
   std::unique_ptr<PluginWorkers> workers_;
@@ -420,7 +421,7 @@ TEST(PluginWorkers, SessionsPerWorkerHoldsWhenManySessionsStartAtOnce) {
   settings.executable = LOCD_WORKER_EXECUTABLE;
   settings.sessions_per_worker = 1;
   PluginWorkers workers(settings, Limits{}, logger);
-  const PluginCatalog catalog({LOCD_BROKEN_PLUGIN_DIR});
+  const PluginIndex catalog = locd::server::test::plugin_index(LOCD_BROKEN_PLUGIN_DIR);
   const auto library = catalog.require("fixture_odometry");
   auto owner = std::make_shared<Owner>();
   std::vector<uint64_t> instances(kSessions, 0);

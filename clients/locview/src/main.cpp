@@ -24,14 +24,14 @@ int main(int argc, char** argv) {
   using namespace locd::view;
   ServerLimits limits;
   ViewOptions view;
-  std::string address = "0.0.0.0";
+  std::string address = "127.0.0.1";
   unsigned port = 8765;
   CLI::App app{"locview: serves every locd robot's pose, particles, scan, maps, grids, goals, status and transforms\n"
                "to Foxglove over the Foxglove WebSocket protocol (foxglove.websocket.v1). DDS settings come from\n"
                "CYCLONEDDS_URI, as for locd and locctl.",
                "locview"};
   app.add_option("--port", port, "TCP port (default 8765; 0 = any free port, printed at start)")->check(CLI::Range(0, 65535));
-  app.add_option("--address", address, "address to listen on (default 0.0.0.0; 127.0.0.1 = this machine only)");
+  app.add_option("--address", address, "address to listen on (default 127.0.0.1, this machine only; 0.0.0.0 = every interface, unauthenticated)");
   app.add_option("--domain", view.domain_id, "DDS domain id (default 0)")->check(CLI::Range(0, 232));
   app.add_option("--robot", view.robots, "only these robots (repeatable; default every robot)");
   app.add_option("--max-clients", limits.max_clients, "WebSocket clients served at once (default 32)")->check(CLI::Range(1, 4096));

@@ -1,6 +1,9 @@
 #include "locd/mcap/mcap.hpp"
 
+#include <fcntl.h>
 #include <lz4frame.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <zstd.h>
 
 #include <array>
@@ -138,8 +141,15 @@ Compression parse_compression(const std::string& name) {
 // ------------------------------------------------------------------------------------ Writer
 
 Writer::Writer(const std::string& path, const WriterOptions& options) : path_(path), options_(options) {
-  file_ = std::fopen(path.c_str(), "wb");
-  if (!file_) throw std::runtime_error("cannot write '" + path + "': " + std::strerror(errno));
+  // 0600: a recording holds every robot's poses and sensor data; it is its recorder's to share.
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+  file_ = fd < 0 ? nullptr : ::fdopen(fd, "wb");
+  if (!file_) {
+    const int error = errno;
+    if (fd >= 0) ::close(fd);
+    throw std::runtime_error("cannot write '" + path + "': " + std::strerror(error));
+  }
+  ::fchmod(fd, 0600);  // an existing file overwritten keeps its old mode otherwise
   put(std::string(kMagic, kMagicSize));
   put(record(kHeader, Out().str(options_.profile).str(options_.library).bytes));
   std::fflush(file_);

@@ -20,8 +20,9 @@
 #include <thread>
 #include <vector>
 
-#include "locd/sdk/plugin_loader.hpp"
 #include "locd/server/log.hpp"
+#include "locd/server/plugin_index.hpp"
+#include "locd/server/worker_launch.hpp"
 #include "locd/server/worker_protocol.hpp"
 
 namespace locd::server {
@@ -47,6 +48,9 @@ struct WorkerSettings {
     std::optional<double> update_deadline_s;
   };
   std::map<std::string, Override> plugins;
+  // What workers may read and write (filled from the server's directories), and whether they
+  // confine themselves at all (config `plugin_workers.sandbox`; off only to measure its cost).
+  SandboxPaths sandbox;
 
   size_t sessions_per_worker_of(const std::string& plugin) const;  // kAuto or a fixed count
   size_t auto_worker_cap() const;
@@ -82,9 +86,9 @@ class PluginWorkers {
   PluginWorkers(const PluginWorkers&) = delete;
   PluginWorkers& operator=(const PluginWorkers&) = delete;
 
-  // A new instance of `library`'s plugin on a worker of that plugin with room, started when none
+  // A new instance of `plugin` on a worker of that plugin with room, started when none
   // has. Throws std::runtime_error when no worker can be started.
-  uint64_t create_instance(const std::shared_ptr<const PluginLibrary>& library, std::weak_ptr<InstanceOwner> owner);
+  uint64_t create_instance(const std::shared_ptr<const PluginDescription>& plugin, std::weak_ptr<InstanceOwner> owner);
   // The requests of an instance, encoded here (the worker channel has one owner: this class
   // writes every frame and reads every reply). `what` names the request in messages should the
   // worker die or hang on it ("update of locd/scan at 12.300000 s"). Each returns false when the
@@ -115,8 +119,8 @@ class PluginWorkers {
   };
 
   struct SpawnRequest;
-  std::shared_ptr<Worker> start_worker(const std::shared_ptr<const PluginLibrary>& library);
-  std::shared_ptr<Worker> start_worker_on_io_thread(const std::shared_ptr<const PluginLibrary>& library);
+  std::shared_ptr<Worker> start_worker(const std::shared_ptr<const PluginDescription>& plugin);
+  std::shared_ptr<Worker> start_worker_on_io_thread(const std::shared_ptr<const PluginDescription>& plugin);
   void run_spawn_requests();
   void run();
   void read_from(const std::shared_ptr<Worker>& worker);
@@ -129,6 +133,7 @@ class PluginWorkers {
   // Pings the workers and kills one that stopped answering (liveness_timeout_s).
   void check_liveness();
   void read_liveness(const std::shared_ptr<Worker>& worker);
+  void read_stderr(const std::shared_ptr<Worker>& worker);
   void run_due_timers();
   int next_wait_ms() const;
   std::shared_ptr<Worker> worker_by_key(uint64_t key) const;

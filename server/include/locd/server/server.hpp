@@ -12,10 +12,10 @@
 #include <set>
 #include <string>
 
-#include "locd/sdk/plugin_loader.hpp"
 #include "locd/server/fleet.hpp"
 #include "locd/server/log.hpp"
 #include "locd/server/output_sink.hpp"
+#include "locd/server/plugin_index.hpp"
 #include "locd/server/plugin_workers.hpp"
 #include "locd/server/resume.hpp"
 #include "locd/server/server_config.hpp"
@@ -35,7 +35,7 @@ struct SessionRequestMessage {
 
 class Server {
  public:
-  Server(ServerConfig config, const PluginCatalog& catalog, OutputSink& sink, Logger& logger);
+  Server(ServerConfig config, const PluginIndex& catalog, OutputSink& sink, Logger& logger);
   ~Server();
   Server(const Server&) = delete;
   Server& operator=(const Server&) = delete;
@@ -124,7 +124,7 @@ class Server {
   void publish_refusal(const std::string& robot_id, uint64_t request_id, std::string message);
 
   ServerConfig config_;
-  const PluginCatalog& catalog_;
+  const PluginIndex& catalog_;
   OutputSink& sink_;
   Logger& logger_;
   SessionObserver* observer_ = nullptr;

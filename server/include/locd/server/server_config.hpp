@@ -56,4 +56,9 @@ std::string default_server_id();
 // locd-worker next to the running executable.
 std::filesystem::path default_worker_executable();
 
+// The config's worker settings with what workers may read (plugin and map directories) and write
+// (the output directory); and the same for the inspectors that read the plugins' catalog.
+WorkerSettings worker_settings(const ServerConfig& config);
+InspectorSettings inspector_settings(const ServerConfig& config);
+
 }  // namespace locd::server

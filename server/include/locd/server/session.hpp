@@ -85,10 +85,10 @@ class Session : public InstanceOwner, public std::enable_shared_from_this<Sessio
   // Each request gets a generation; only the newest one may install its plugin. It also forgets
   // the last accepted stamps, so a restarted robot whose clock begins again is accepted.
   uint64_t begin_request(uint64_t request_id);
-  // Configures `library`'s plugin on a worker; when it answers, the plugin is installed (the
+  // Configures `plugin` on a worker; when it answers, the plugin is installed (the
   // running one, if any, released), handed the robot's pose and its initial outputs published.
   // A request superseded meanwhile is discarded.
-  void start(uint64_t generation, uint64_t request_id, std::shared_ptr<const PluginLibrary> library,
+  void start(uint64_t generation, uint64_t request_id, std::shared_ptr<const PluginDescription> plugin,
              PluginConfigText config, const std::string& source);
   // The request failed before reaching a worker: the running plugin (if any) keeps running, the
   // status carries the error. Returns true when the session has a plugin running. The caller
@@ -127,7 +127,7 @@ class Session : public InstanceOwner, public std::enable_shared_from_this<Sessio
   struct Plugin {
     uint64_t instance = 0;  // 0: none alive (its worker was lost)
     std::string name;
-    std::shared_ptr<const PluginLibrary> library;
+    std::shared_ptr<const PluginDescription> description;
     PluginConfigText config;
     std::string source;
     uint64_t request_id = 0;
