@@ -69,6 +69,7 @@ struct Options {
   fs::path plugin_dir = LOCD_PLUGIN_DIR;
   std::vector<std::pair<std::string, std::string>> overrides;
   bool verbose = false;
+  double noise_scale = 1.0;  // the odometry noise model's deviations times this (1: the README's)
 };
 
 struct Event {
@@ -90,7 +91,7 @@ Pose2 reference_at(const PoseHistory& reference, int64_t stamp_ns) {
 }
 
 // The README's noise model, composed step after step from the reference at the ODOM stamps.
-Inputs make_inputs(const logs::CarmenLog& log, uint64_t seed) {
+Inputs make_inputs(const logs::CarmenLog& log, uint64_t seed, double noise_scale) {
   Inputs in;
   for (const logs::CarmenScan& s : log.scans) in.reference.add(s.scan.header.stamp_ns, s.laser_pose.to_isometry());
   if (in.reference.size() < 2) throw std::runtime_error("the log has fewer than 2 scans");
@@ -109,8 +110,8 @@ Inputs make_inputs(const logs::CarmenLog& log, uint64_t seed) {
     } else {
       const Pose2 step = previous_reference.inverse() * r;
       const double ds = std::hypot(step.x, step.y), dth = step.theta;
-      const double scale = 1.0 + 0.05 * normal(rng);
-      const double rotation_stddev = (M_PI / 180.0) * ds + 0.02 * std::abs(dth);
+      const double scale = 1.0 + noise_scale * 0.05 * normal(rng);
+      const double rotation_stddev = noise_scale * ((M_PI / 180.0) * ds + 0.02 * std::abs(dth));
       odometry = odometry * Pose2(scale * step.x, scale * step.y, dth + rotation_stddev * normal(rng));
       odometry.theta = normalize_angle(odometry.theta);
     }
@@ -124,7 +125,9 @@ Inputs make_inputs(const logs::CarmenLog& log, uint64_t seed) {
     ++in.odometry_samples;
   }
   for (const logs::CarmenScan& s : log.scans) {
-    in.events.push_back({s.scan.header.stamp_ns, s.scan});
+    LaserScan scan = s.scan;
+    if (std::getenv("REVERSE_BEAMS")) std::reverse(scan.ranges.begin(), scan.ranges.end());
+    in.events.push_back({s.scan.header.stamp_ns, scan});
     ++in.scans;
   }
   std::stable_sort(in.events.begin(), in.events.end(), [](const Event& a, const Event& b) {
@@ -220,7 +223,7 @@ RunFigures run(const Options& options, const LogSpec& spec, const Inputs& in, co
       const Pose2 e = Pose2::from_isometry(r.estimate->pose), truth = reference_at(in.reference, stamp);
       std::cerr << fixed_text(static_cast<double>(stamp - in.first_scan_ns) * 1e-9) << " error "
                 << fixed_text(std::hypot(e.x - truth.x, e.y - truth.y)) << " at " << fixed_text(truth.x) << ","
-                << fixed_text(truth.y) << " heading error " << fixed_text(normalize_angle(e.theta - truth.theta) * 180.0 / M_PI) << " deg odom yaw " << fixed_text(Pose2::from_isometry(*in.odometry.at(stamp)).theta * 180 / M_PI) << " truth yaw " << fixed_text(truth.theta * 180 / M_PI) << " " << localization_state_name(state);
+                << fixed_text(truth.y) << " heading error " << fixed_text(normalize_angle(e.theta - truth.theta) * 180.0 / M_PI) << " deg odom yaw " << fixed_text(Pose2::from_isometry(*in.odometry.at(stamp)).theta * 180 / M_PI)  << " truth yaw " << fixed_text(truth.theta * 180 / M_PI) << " yaw std " << fixed_text(std::sqrt(r.estimate->covariance(5, 5)) * 180 / M_PI) << " " << localization_state_name(state);
       for (const auto& [k, v] : r.diagnostics.values) {
         if (k == "particles" || k == "scan_fit" || k == "see_through" || k == "cluster_mass") std::cerr << " " << k << " " << v;
       }
@@ -297,7 +300,7 @@ std::vector<std::string> split(const std::string& text, char by) {
   std::cerr << "realdata_bench: " << problem << "\n"
             << "usage: realdata_bench [--data DIR] [--logs freiburg-079,intel] [--seeds 1-5 | 1,3] "
                "[--start near|global|both] [--config FILE] [--plugin-dir DIR] [--set key=value ...] [--no-mrpt] "
-               "[--verbose]\n";
+               "[--noise-scale X] [--verbose]\n";
   std::exit(2);
 }
 
@@ -346,6 +349,12 @@ Options parse(int argc, char** argv) {
       o.overrides.emplace_back(v.substr(0, eq), v.substr(eq + 1));
     } else if (a == "--no-mrpt") {
       // MRPT is never run by this program (see the header); accepted for the documented command.
+    } else if (a == "--noise-scale") {
+      try {
+        o.noise_scale = std::stod(value());
+      } catch (const std::exception&) {
+        usage("--noise-scale needs a number");
+      }
     } else if (a == "--verbose") {
       o.verbose = true;
     } else {
@@ -390,7 +399,7 @@ int main(int argc, char** argv) {
     for (const std::string& start : options.starts) {
       for (uint64_t seed : options.seeds) {
         try {
-          const Inputs in = make_inputs(log, seed);
+          const Inputs in = make_inputs(log, seed, options.noise_scale);
           const RunFigures f = run(options, spec, in, start, seed);
           print_row(f);
           by_group[spec.name + " " + start].push_back(f);
