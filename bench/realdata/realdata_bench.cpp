@@ -126,7 +126,6 @@ Inputs make_inputs(const logs::CarmenLog& log, uint64_t seed, double noise_scale
   }
   for (const logs::CarmenScan& s : log.scans) {
     LaserScan scan = s.scan;
-    if (std::getenv("REVERSE_BEAMS")) std::reverse(scan.ranges.begin(), scan.ranges.end());
     in.events.push_back({s.scan.header.stamp_ns, scan});
     ++in.scans;
   }
