@@ -227,13 +227,25 @@ CorrectionReport GridParticleFilter::correct(const LaserScan& scan, const Pose2&
 }
 
 void GridParticleFilter::weigh(const PreparedScan& scan, CorrectionReport& report) {
-  // Searching (lost, with search_sigma_hit set): AMCL's robust likelihood_field with a wider
-  // field, so several hypotheses live on and particles near the truth are pulled in. Only while
-  // lost: on real logs a filter that tracks well is often uncertain (returns through open doors
-  // and glass, clutter the map lacks), and a wider field then lets the set drift (issue 21).
+  // Searching (with search_sigma_hit set): AMCL's robust likelihood_field with a wider field, so
+  // several hypotheses live on and particles near the truth are pulled in: while lost
+  // search_sigma_hit, while uncertain with the set still spread (its main cluster below
+  // tracking_min_cluster_mass or wider than tracking_max_position_stddev) sqrt(sigma_hit x that).
+  // Not while uncertain with the set on one pose: on real logs a filter that tracks well is
+  // uncertain for half its updates (returns through open doors and glass, clutter the map
+  // lacks), and a wider field then let the set drift onto rivals 9-20 m away (issue 21).
   const LaserModelConfig& l = config_.laser;
-  const bool search = l.search_sigma_hit > l.sigma_hit && assessment_.state == LocalizationState::kLost;
-  const double sigma = search ? l.search_sigma_hit : l.sigma_hit;
+  const StateCriteria& c = config_.state;
+  bool spread = !estimate_ || estimate_->mass < c.tracking_min_cluster_mass;
+  if (!spread) {
+    const double variance =
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(estimate_->covariance.topLeftCorner<2, 2>()).eigenvalues()(1);
+    spread = variance > c.tracking_max_position_stddev * c.tracking_max_position_stddev;
+  }
+  const bool lost = assessment_.state == LocalizationState::kLost;
+  const bool search = l.search_sigma_hit > l.sigma_hit && (lost || (assessment_.state == LocalizationState::kUncertain && spread));
+  double sigma = l.sigma_hit;
+  if (search) sigma = lost ? l.search_sigma_hit : std::sqrt(l.sigma_hit * l.search_sigma_hit);
   report.sigma_hit = sigma;
   laser_.set_search(search, sigma);
   laser_.prepare(scan);
