@@ -40,8 +40,9 @@ struct LaserModelConfig {
   double sigma_hit = 0.2;             // m
   double lambda_short = 0.1;          // 1/m, beam model only
   double likelihood_max_dist = 2.0;   // laser_likelihood_max_dist, m: the field saturates here
-  // While the filter is lost its field is this wide, so particles far from any sampled pose still
-  // pull the set towards the truth (annealing); 0 (or sigma_hit): always sigma_hit, as AMCL.
+  // While the filter is lost its field is this wide, while uncertain with the set still spread
+  // sqrt(sigma_hit x this), so particles far from any sampled pose still pull the set towards the
+  // truth (annealing); 0 (or sigma_hit): always sigma_hit, as AMCL.
   double search_sigma_hit = 0.0;      // m
 };
 
