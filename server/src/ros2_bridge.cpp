@@ -8,7 +8,7 @@
 #include <utility>
 
 #include "locd/dds/ros2_convert.hpp"
-#include "locd/server/pose_history.hpp"
+#include "locd/sdk/pose_history.hpp"
 #include "locd/server/server.hpp"
 #include "locd/server/transform_buffer.hpp"
 

@@ -162,7 +162,8 @@ void GridParticleFilter::set_global() {
   recovery_.reset();
   odometry_at_update_.reset();
   updates_since_resampling_ = 0;
-  estimate_.reset();
+  // The best estimate there is (a wide, light cluster), published with its covariance while lost.
+  estimate_ = main_cluster(particles_, config_.filter.cluster_radius, std::nullopt);
   assessment_ = {LocalizationState::kLost, "global localization: particles spread over the free space"};
 }
 
@@ -192,17 +193,18 @@ CorrectionReport GridParticleFilter::correct(const LaserScan& scan, const Pose2&
   } else {
     estimate_ = main_cluster(particles_, radius, estimate_ ? std::optional<Pose2>(estimate_->pose) : std::nullopt);
   }
-  const bool was_tracking = assessment_.state == LocalizationState::kTracking;
   assess(prepared, scan, report);
   // Kidnapped, or a search settled on the wrong place: the filter holds one pose (its main
-  // cluster has tracking_min_cluster_mass) but the scan has not fitted it for
-  // relocalize_after_lost_updates updates in a row: global localization. Not fitting is a scan
-  // fit below tracking_min_fit, or returns passing through the map's walls in a streak that began
-  // while tracking (a set still converging sees through at grazing angles from its heading error).
+  // cluster has tracking_min_cluster_mass) but the scan has not fitted it (fit below
+  // tracking_min_fit) for relocalize_after_lost_updates updates in a row: global localization.
+  // Evidence a well-tracking filter did not give on the real logs (issue 21, bench/realdata with
+  // the shipped config, seed 1: within 0.5 m of the reference the fit stayed below 50 % for at most
+  // 5 updates in a row on intel, never on freiburg-079). Returns through the map's walls never
+  // count: a real map lacks open doors, glass and half-seen walls, and a well-tracking filter sees
+  // through them for many updates; they make the state uncertain only.
   const StateCriteria& c = config_.state;
   const bool committed = estimate_->mass >= c.tracking_min_cluster_mass;
-  const bool misfit = report.fit < c.tracking_min_fit ||
-                      (report.see_through > c.tracking_max_see_through && (was_tracking || lost_updates_ > 0));
+  const bool misfit = report.fit < c.tracking_min_fit;
   lost_updates_ = committed && misfit ? lost_updates_ + 1 : 0;
   const int patience = config_.filter.relocalize_after_lost_updates;
   if (patience > 0 && lost_updates_ >= patience) {
@@ -225,14 +227,25 @@ CorrectionReport GridParticleFilter::correct(const LaserScan& scan, const Pose2&
 }
 
 void GridParticleFilter::weigh(const PreparedScan& scan, CorrectionReport& report) {
-  // Searching (lost or uncertain, with search_sigma_hit set): AMCL's robust likelihood_field with a
-  // wider field, so several hypotheses live on and particles near the truth are pulled in.
+  // Searching (with search_sigma_hit set): AMCL's robust likelihood_field with a wider field, so
+  // several hypotheses live on and particles near the truth are pulled in: while lost
+  // search_sigma_hit, while uncertain with the set still spread (its main cluster below
+  // tracking_min_cluster_mass or wider than tracking_max_position_stddev) sqrt(sigma_hit x that).
+  // Not while uncertain with the set on one pose: on real logs a filter that tracks well is
+  // uncertain for half its updates (returns through open doors and glass, clutter the map
+  // lacks), and a wider field then let the set drift onto rivals 9-20 m away (issue 21).
   const LaserModelConfig& l = config_.laser;
-  const bool search = l.search_sigma_hit > l.sigma_hit && assessment_.state != LocalizationState::kTracking;
-  double sigma = l.sigma_hit;
-  if (search) {
-    sigma = assessment_.state == LocalizationState::kLost ? l.search_sigma_hit : std::sqrt(l.sigma_hit * l.search_sigma_hit);
+  const StateCriteria& c = config_.state;
+  bool spread = !estimate_ || estimate_->mass < c.tracking_min_cluster_mass;
+  if (!spread) {
+    const double variance =
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(estimate_->covariance.topLeftCorner<2, 2>()).eigenvalues()(1);
+    spread = variance > c.tracking_max_position_stddev * c.tracking_max_position_stddev;
   }
+  const bool lost = assessment_.state == LocalizationState::kLost;
+  const bool search = l.search_sigma_hit > l.sigma_hit && (lost || (assessment_.state == LocalizationState::kUncertain && spread));
+  double sigma = l.sigma_hit;
+  if (search) sigma = lost ? l.search_sigma_hit : std::sqrt(l.sigma_hit * l.search_sigma_hit);
   report.sigma_hit = sigma;
   laser_.set_search(search, sigma);
   laser_.prepare(scan);

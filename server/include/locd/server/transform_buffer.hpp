@@ -11,7 +11,7 @@
 #include <string>
 
 #include "locd/dds/ros2_convert.hpp"
-#include "locd/server/pose_history.hpp"
+#include "locd/sdk/pose_history.hpp"
 
 namespace locd::server {
 

@@ -40,9 +40,9 @@ struct LaserModelConfig {
   double sigma_hit = 0.2;             // m
   double lambda_short = 0.1;          // 1/m, beam model only
   double likelihood_max_dist = 2.0;   // laser_likelihood_max_dist, m: the field saturates here
-  // While the filter is lost its field is this wide, while uncertain sqrt(sigma_hit x this), so
-  // particles far from any sampled pose still pull the set towards the truth (annealing); 0 (or
-  // sigma_hit): always sigma_hit, as AMCL.
+  // While the filter is lost its field is this wide, while uncertain with the set still spread
+  // sqrt(sigma_hit x this), so particles far from any sampled pose still pull the set towards the
+  // truth (annealing); 0 (or sigma_hit): always sigma_hit, as AMCL.
   double search_sigma_hit = 0.0;      // m
 };
 
@@ -55,9 +55,9 @@ struct FilterConfig {
   Eigen::Vector3d kld_bin{0.5, 0.5, 10.0 * M_PI / 180.0};  // AMCL's kd-tree cell: m, m, rad
   int resample_interval = 1;          // resample every n-th filter update
   bool selective_resampling = false;  // ...and only when the effective sample size is below half the set
-  // Augmented MCL (AMCL's recovery_alpha_*); both 0 disables recovery, as in AMCL.
-  double recovery_alpha_slow = 0.001;
-  double recovery_alpha_fast = 0.1;
+  // Augmented MCL (AMCL's recovery_alpha_*); both 0 (AMCL's default) disables recovery.
+  double recovery_alpha_slow = 0.0;
+  double recovery_alpha_fast = 0.0;
   // Kidnapped robot: while the filter holds one pose (localization_state.tracking_min_cluster_mass)
   // a scan fit below localization_state.tracking_min_fit this many updates in a row restarts
   // global localization; 0: never, as AMCL.

@@ -1,8 +1,8 @@
-#include "locd/server/pose_history.hpp"
+#include "locd/sdk/pose_history.hpp"
 
 #include <algorithm>
 
-namespace locd::server {
+namespace locd {
 
 void PoseHistory::add(int64_t stamp_ns, const Eigen::Isometry3d& pose) {
   if (!samples_.empty() && stamp_ns < samples_.back().first) return;
@@ -26,4 +26,4 @@ std::optional<Eigen::Isometry3d> PoseHistory::at(int64_t stamp_ns) const {
   return pose;
 }
 
-}  // namespace locd::server
+}  // namespace locd

@@ -10,7 +10,7 @@
 #include <optional>
 #include <utility>
 
-namespace locd::server {
+namespace locd {
 
 class PoseHistory {
  public:
@@ -29,4 +29,4 @@ class PoseHistory {
   std::deque<std::pair<int64_t, Eigen::Isometry3d>> samples_;
 };
 
-}  // namespace locd::server
+}  // namespace locd
