@@ -96,7 +96,7 @@ Scenario parse_scenario(const std::string& text, const std::string& source, cons
     const fs::path folder = fs::path(s.map_name).parent_path();
     const MapResolver resolver(s.map_directories);
     try {
-      s.world = std::make_shared<GridWorld>(std::make_shared<grid_mcl::OccupancyMap>(grid_mcl::load_occupancy_map(
+      s.world = std::make_shared<GridWorld>(std::make_shared<OccupancyMap>(load_occupancy_map(
           s.map_file, [&](const std::string& image) { return resolver.resolve((folder / image).lexically_normal().string()); },
           Limits{}.max_map_cells)));
     } catch (const ConfigError& e) {
