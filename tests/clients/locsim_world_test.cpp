@@ -4,6 +4,7 @@
 
 #include "locd/sdk/feature_map.hpp"
 #include "locd/sim/grid_world.hpp"
+#include "locd/sim/world_differences.hpp"
 #include "locd/sim/world.hpp"
 #include "locsim_paths.hpp"
 
@@ -226,4 +227,119 @@ TEST(GridWorld, MatchesTheSegmentOutlinesOfItsSolidCells) {
   }
   EXPECT_GT(compared, 15000);
   EXPECT_GT(hits, compared / 2);
+}
+
+namespace {
+
+// A 10 x 4 m room of walls (a feature map's world) and the same room as a 0.05 m grid.
+std::shared_ptr<const SegmentWorld> room() {
+  return std::make_shared<SegmentWorld>(
+      std::vector<Segment>{{{0, 0}, {10, 0}}, {{10, 0}, {10, 4}}, {{10, 4}, {0, 4}}, {{0, 4}, {0, 0}}});
+}
+
+locd::sim::WorldDifferences differences(const std::string& yaml) {
+  return locd::sim::parse_world_differences(locd::Params::parse(yaml, "differences.yaml"));
+}
+
+}  // namespace
+
+TEST(WorldDifferences, ClutterAndWallsTheMapLacksStopBeams) {
+  const locd::sim::DifferentWorld world(room(), differences(
+      "clutter: [{centre: [5, 2], size: [1, 0.5], yaw_deg: 90}]\nwalls: [[[2, 3], [2, 4]]]\n"));
+  EXPECT_NEAR(*world.cast({1, 2}, 0.0, 20.0), 3.75, kExact);     // the box turned 90 deg: 0.5 along x
+  EXPECT_NEAR(*world.cast({1, 3.5}, 0.0, 20.0), 1.0, kExact);    // the wall the map lacks
+  EXPECT_NEAR(*world.cast({1, 2.8}, 0.0, 20.0), 9.0, kExact);    // between them: the map's wall
+}
+
+TEST(WorldDifferences, APersonWalkingOccludesTheBeamsItCrosses) {
+  // A person (radius 0.3) walks from (5, 0.5) to (5, 3.5) and back at 1 m/s.
+  const locd::sim::DifferentWorld world(room(), differences("people: [{path: [[5, 0.5], [5, 3.5]], radius: 0.3, speed: 1}]\n"));
+  const Eigen::Vector2d o(1, 2);
+  EXPECT_NEAR(*world.cast_at(0.0, o, 0.0, 20.0), 9.0, kExact);   // at (5, 0.5): out of the beam
+  EXPECT_NEAR(*world.cast_at(1.5, o, 0.0, 20.0), 3.7, kExact);   // at (5, 2): in it
+  EXPECT_NEAR(*world.cast_at(4.5, o, 0.0, 20.0), 3.7, kExact);   // on the way back
+  EXPECT_NEAR(*world.cast_at(3.0, o, 0.0, 20.0), 9.0, kExact);   // at (5, 3.5)
+  // The share of a 180-degree scan it hides, every 0.1 s over one walk: some beams, never all.
+  int hidden_scans = 0;
+  for (double t = 0; t < 6.0; t += 0.1) {
+    int hidden = 0;
+    for (int i = 0; i < 181; ++i) {
+      const double a = -M_PI / 2 + i * M_PI / 180;
+      if (*world.cast_at(t, o, a, 20.0) + 1e-9 < *room()->cast(o, a, 20.0)) ++hidden;
+    }
+    EXPECT_LT(hidden, 30) << t;
+    hidden_scans += hidden > 0;
+  }
+  EXPECT_GT(hidden_scans, 30);
+}
+
+TEST(WorldDifferences, GlassAndOpenDoorsLetTheBeamThroughClosedDoorsStopIt) {
+  // The room split by a wall at x = 5 in its map; glass from y = 0 to 2 in it, a door from 2 to 3
+  // open in the world; the doorway at x = 8 (none in the map) closed in the world.
+  auto split = std::make_shared<SegmentWorld>(std::vector<Segment>{
+      {{0, 0}, {10, 0}}, {{10, 0}, {10, 4}}, {{10, 4}, {0, 4}}, {{0, 4}, {0, 0}}, {{5, 0}, {5, 4}}});
+  const locd::sim::DifferentWorld world(split, differences(
+      "glass: [{from: [5, 0], to: [5, 2]}]\n"
+      "doors: [{from: [5, 2], to: [5, 3], world: open}, {from: [8, 0], to: [8, 4], world: closed}]\n"));
+  EXPECT_NEAR(*split->cast({1, 1}, 0.0, 20.0), 4.0, kExact);
+  EXPECT_NEAR(*world.cast({1, 1}, 0.0, 20.0), 7.0, kExact);    // through the glass to the closed door
+  EXPECT_NEAR(*world.cast({1, 2.5}, 0.0, 20.0), 7.0, kExact);  // through the open door
+  EXPECT_NEAR(*world.cast({1, 3.5}, 0.0, 20.0), 4.0, kExact);  // the wall above the door
+  EXPECT_NEAR(*world.cast({9, 1}, M_PI, 20.0), 1.0, kExact);   // the closed door from the other side
+}
+
+TEST(WorldDifferences, GlassInAGridWorldHidesTheMapsWallCells) {
+  // The same split room as a 0.05 m grid: the wall at x = 5 is column 100; glass over its lower half.
+  TestGrid grid(201, 81, 0.05);
+  for (int c = 0; c <= 200; ++c) grid.set(0, c).set(80, c);
+  for (int r = 0; r <= 80; ++r) grid.set(r, 0).set(r, 100).set(r, 200);
+  auto base = std::make_shared<GridWorld>(grid.world());
+  const locd::sim::DifferentWorld world(base, differences("glass: [{from: [5.025, 0.05], to: [5.025, 2]}]\n"));
+  EXPECT_NEAR(*base->cast({1, 1}, 0.0, 20.0), 4.0, kExact);
+  EXPECT_NEAR(*world.cast({1, 1}, 0.0, 20.0), 9.0, kExact);    // to the east wall's face at x = 10
+  EXPECT_NEAR(*world.cast({1, 3}, 0.0, 20.0), 4.0, kExact);    // above the glass
+  EXPECT_NEAR(*world.cast({9, 1}, M_PI, 20.0), 8.95, kExact);  // back, to the west wall's face at x = 0.05
+}
+
+TEST(WorldDifferences, AShiftedScaledMapMovesEverySurface) {
+  // world = 1.01 * map + (0.1, 0): the east wall (x = 10 in the map) stands at 10.2.
+  const locd::sim::DifferentWorld world(room(), differences("map_transform: {shift: [0.1, 0], scale: 1.01}\n"));
+  EXPECT_NEAR(*world.cast({5, 2}, 0.0, 20.0), 5.2, kExact);
+  EXPECT_NEAR(*world.cast({5, 2}, M_PI, 20.0), 4.9, kExact);  // the west wall at 0.1
+  EXPECT_NEAR(*world.cast({5, 2}, M_PI / 2, 20.0), 2.04, kExact);  // the north wall at 4.04
+  const locd::sim::DifferentWorld turned(room(), differences("map_transform: {rotation_deg: 1}\n"));
+  // Turned 1 degree about the map's origin.
+  const double a = M_PI / 180;
+  const auto r = turned.cast({5, 2}, 0.0, 20.0);
+  ASSERT_TRUE(r);
+  // The wall is the world line through R(a) (10, 0) along R(a) (0, 1): x cos a + y sin a = 10.
+  EXPECT_NEAR(5 + *r, (10.0 - 2.0 * std::sin(a)) / std::cos(a), kExact);
+}
+
+TEST(WorldDifferences, BadKeysNameKeyValueAndWhatIsAllowed) {
+  const auto error = [](const std::string& yaml) {
+    try {
+      differences(yaml);
+    } catch (const locd::ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(error("mirrors: []\n").find("unknown parameter 'mirrors'"), std::string::npos) << error("mirrors: []\n");
+  const std::string scale = error("map_transform: {scale: 2}\n");
+  EXPECT_NE(scale.find("'map_transform.scale'"), std::string::npos) << scale;
+  EXPECT_NE(scale.find("[0.9, 1.1]"), std::string::npos) << scale;
+  const std::string door = error("doors: [{from: [1, 0], to: [2, 0], world: ajar}]\n");
+  EXPECT_NE(door.find("'doors[0].world'"), std::string::npos) << door;
+  EXPECT_NE(door.find("ajar"), std::string::npos) << door;
+  EXPECT_NE(door.find("open"), std::string::npos) << door;
+  const std::string box = error("clutter: [{centre: [1, 2], size: [0, 1]}]\n");
+  EXPECT_NE(box.find("'clutter[0].size'"), std::string::npos) << box;
+  const std::string person = error("people: [{path: [[1, 2], [1, 2]]}]\n");
+  EXPECT_NE(person.find("'people[0].path'"), std::string::npos) << person;
+  EXPECT_NE(person.find("repeats"), std::string::npos) << person;
+  const std::string wall = error("walls: [[[1, 2]]]\n");
+  EXPECT_NE(wall.find("'walls'"), std::string::npos) << wall;
+  EXPECT_NE(error("glass: {from: [1, 2]}\n").find("is not a list"), std::string::npos);
+  EXPECT_NE(error("glass: [{from: [1, 2]}]\n").find("'glass[0].to' (") , std::string::npos) << error("glass: [{from: [1, 2]}]\n");
 }

@@ -8,6 +8,7 @@
 #include "locd/sdk/plugin.hpp"
 #include "locd/sdk/plugin_config.hpp"
 #include "locd/sim/grid_world.hpp"
+#include "locd/sim/world_differences.hpp"
 
 namespace locd::sim {
 
@@ -64,7 +65,7 @@ RobotSpec parse_robot(const Params& p) {
 Scenario parse_scenario(const std::string& text, const std::string& source, const fs::path& base_directory) {
   const Params p = Params::parse(text, source);
   p.expect_only({"name", "seed", "duration_s", "map", "map_directories", "robot", "sensors", "localizer",
-                 "evaluation", "kidnap"});
+                 "evaluation", "kidnap", "differences"});
   Scenario s;
   s.file = source;
   s.name = p.required_text("name");
@@ -105,6 +106,10 @@ Scenario parse_scenario(const std::string& text, const std::string& source, cons
   } else {
     s.map = load_feature_map(s.map_file.string(), 100000);
     s.world = std::make_shared<SegmentWorld>(SegmentWorld::from_feature_map(s.map));
+  }
+
+  if (p.has("differences")) {
+    s.world = std::make_shared<DifferentWorld>(s.world, parse_world_differences(p.child("differences")));
   }
 
   if (!p.has("robot")) p.fail("robot", "is missing; expected {id, start, waypoints, ...}");
