@@ -301,19 +301,13 @@ TEST(WorldDifferences, GlassInAGridWorldHidesTheMapsWallCells) {
   EXPECT_NEAR(*world.cast({9, 1}, M_PI, 20.0), 8.95, kExact);  // back, to the west wall's face at x = 0.05
 }
 
-TEST(WorldDifferences, AShiftedScaledMapMovesEverySurface) {
-  // world = 1.01 * map + (0.1, 0): the east wall (x = 10 in the map) stands at 10.2.
-  const locd::sim::DifferentWorld world(room(), differences("map_transform: {shift: [0.1, 0], scale: 1.01}\n"));
-  EXPECT_NEAR(*world.cast({5, 2}, 0.0, 20.0), 5.2, kExact);
-  EXPECT_NEAR(*world.cast({5, 2}, M_PI, 20.0), 4.9, kExact);  // the west wall at 0.1
-  EXPECT_NEAR(*world.cast({5, 2}, M_PI / 2, 20.0), 2.04, kExact);  // the north wall at 4.04
-  const locd::sim::DifferentWorld turned(room(), differences("map_transform: {rotation_deg: 1}\n"));
-  // Turned 1 degree about the map's origin.
-  const double a = M_PI / 180;
-  const auto r = turned.cast({5, 2}, 0.0, 20.0);
-  ASSERT_TRUE(r);
-  // The wall is the world line through R(a) (10, 0) along R(a) (0, 1): x cos a + y sin a = 10.
-  EXPECT_NEAR(5 + *r, (10.0 - 2.0 * std::sin(a)) / std::cos(a), kExact);
+TEST(WorldDifferences, AScaledMapScalesEveryRange) {
+  // The world 1 % larger than its map, with a box the map lacks: every range 1.01 times the map's.
+  const locd::sim::DifferentWorld world(room(), differences("map_scale: 1.01\nclutter: [{centre: [8, 3], size: [1, 1]}]\n"));
+  EXPECT_NEAR(*world.cast({5, 2}, 0.0, 20.0), 5.0 * 1.01, kExact);
+  EXPECT_NEAR(*world.cast({5, 2}, M_PI / 2, 20.0), 2.0 * 1.01, kExact);
+  EXPECT_NEAR(*world.cast({5, 3}, 0.0, 20.0), 2.5 * 1.01, kExact);
+  EXPECT_FALSE(world.cast({5, 2}, 0.0, 5.0));  // 5.05 m in the world: beyond 5 m
 }
 
 TEST(WorldDifferences, BadKeysNameKeyValueAndWhatIsAllowed) {
@@ -326,8 +320,8 @@ TEST(WorldDifferences, BadKeysNameKeyValueAndWhatIsAllowed) {
     return std::string();
   };
   EXPECT_NE(error("mirrors: []\n").find("unknown parameter 'mirrors'"), std::string::npos) << error("mirrors: []\n");
-  const std::string scale = error("map_transform: {scale: 2}\n");
-  EXPECT_NE(scale.find("'map_transform.scale'"), std::string::npos) << scale;
+  const std::string scale = error("map_scale: 2\n");
+  EXPECT_NE(scale.find("'map_scale'"), std::string::npos) << scale;
   EXPECT_NE(scale.find("[0.9, 1.1]"), std::string::npos) << scale;
   const std::string door = error("doors: [{from: [1, 0], to: [2, 0], world: ajar}]\n");
   EXPECT_NE(door.find("'doors[0].world'"), std::string::npos) << door;

@@ -109,16 +109,9 @@ double SeeThrough::exit(const Eigen::Vector2d& origin, const Eigen::Vector2d& di
 }
 
 WorldDifferences parse_world_differences(const Params& p) {
-  p.expect_only({"map_transform", "clutter", "people", "walls", "doors", "glass"});
+  p.expect_only({"map_scale", "clutter", "people", "walls", "doors", "glass"});
   WorldDifferences d;
-  if (p.has("map_transform")) {
-    const Params m = p.child("map_transform");
-    m.expect_only({"shift", "rotation_deg", "scale"});
-    const auto shift = m.numbers("shift", {0.0, 0.0}, 2, Range::closed(-10.0, 10.0));
-    d.map_transform.shift = {shift[0], shift[1]};
-    d.map_transform.rotation = m.number("rotation_deg", 0.0, Range::closed(-10.0, 10.0)) * M_PI / 180.0;
-    d.map_transform.scale = m.number("scale", 1.0, Range::closed(0.9, 1.1));
-  }
+  d.map_scale = p.number("map_scale", 1.0, Range::closed(0.9, 1.1));
   for_each_entry(p, "clutter", "boxes {centre: [x, y], size: [length, width], yaw_deg}", [&](const Params& e) {
     e.expect_only({"centre", "size", "yaw_deg"});
     Box b;
@@ -181,16 +174,12 @@ std::optional<double> DifferentWorld::cast(const Eigen::Vector2d& origin, double
 }
 
 std::optional<double> DifferentWorld::cast_map(const Eigen::Vector2d& origin, double angle, double max_range) const {
-  const MapTransform& m = differences_.map_transform;
   const Eigen::Vector2d direction(std::cos(angle), std::sin(angle));
-  double offset = 0.0;  // along the ray in the world (m): where the cast starts again past a band
+  double offset = 0.0;  // along the ray (m): where the cast starts again past a band
   for (int pass = 0; pass < 64; ++pass) {
-    const Eigen::Vector2d from = origin + offset * direction;
-    // The map's world is the map placed by the transform: cast in the map's frame, scale back.
-    const Eigen::Vector2d from_map = rotate(from - m.shift, -m.rotation) / m.scale;
-    const auto range_map = map_world_->cast(from_map, angle - m.rotation, (max_range - offset) / m.scale);
-    if (!range_map) return std::nullopt;
-    const double t = offset + *range_map * m.scale;
+    const auto range = map_world_->cast(origin + offset * direction, angle, max_range - offset);
+    if (!range) return std::nullopt;
+    const double t = offset + *range;
     const Eigen::Vector2d hit = origin + t * direction;
     const SeeThrough* band = nullptr;
     for (const SeeThrough& s : differences_.see_through) {
@@ -207,7 +196,9 @@ std::optional<double> DifferentWorld::cast_map(const Eigen::Vector2d& origin, do
 }
 
 std::optional<double> DifferentWorld::cast_at(double t, const Eigen::Vector2d& origin, double angle,
-                                              double max_range) const {
+                                              double max_range_world) const {
+  // The world is the scene below scaled by map_scale: cast in the map's frame, scale the range.
+  const double scale = differences_.map_scale, max_range = max_range_world / scale;
   std::optional<double> best = cast_map(origin, angle, max_range);
   const auto keep = [&](std::optional<double> r) {
     if (r && (!best || *r < *best)) best = r;
@@ -224,6 +215,7 @@ std::optional<double> DifferentWorld::cast_at(double t, const Eigen::Vector2d& o
     const double s = std::max(0.0, -b - std::sqrt(discriminant));
     if (s <= max_range) keep(s);
   }
+  if (best) *best *= scale;
   return best;
 }
 

@@ -3,8 +3,7 @@
 // the map's world changed as listed, all in the map frame (m, degrees):
 //
 //   differences:
-//     map_transform: {shift: [0.05, -0.03], rotation_deg: 0.2, scale: 1.002}  # the map drawn a
-//                                       #   little off: world point = scale * R(rotation) * map point + shift
+//     map_scale: 1.002                  # the world is this much larger than its map drawn
 //     clutter:                          # unmapped boxes (carts, chairs, pallets)
 //       - {centre: [10, 1.6], size: [0.6, 0.4], yaw_deg: 20}
 //     people:                           # discs walking their path back and forth
@@ -20,6 +19,12 @@
 // in which the map's surfaces do not stop a beam (wide enough to hold the map's wall: a grid's wall
 // cells stand up to a cell off the line). What the section adds (clutter, people, walls, closed
 // doors) stops a beam wherever it is. Errors name the key, the value and what is allowed.
+//
+// The robot's truth stays in the map frame (where it is scored and where the plugin's answer is
+// right), and the world is the map's (with everything above) scaled by map_scale: every range is
+// map_scale times the map's. A map shifted or turned as a whole by a little is not a difference a
+// localizer can see (the right answer moves with it), so there is no key for it; a map whose parts
+// are shifted against each other (a SLAM map's drift) is not modelled yet.
 #pragma once
 
 #include <memory>
@@ -54,15 +59,8 @@ struct SeeThrough {
   double exit(const Eigen::Vector2d& origin, const Eigen::Vector2d& direction, double t) const;
 };
 
-struct MapTransform {
-  Eigen::Vector2d shift = Eigen::Vector2d::Zero();
-  double rotation = 0.0;  // rad
-  double scale = 1.0;
-  bool identity() const { return shift.isZero() && rotation == 0.0 && scale == 1.0; }
-};
-
 struct WorldDifferences {
-  MapTransform map_transform;
+  double map_scale = 1.0;
   std::vector<Box> clutter;
   std::vector<Person> people;
   std::vector<Segment> walls;        // the section's walls and the doors closed in the world
@@ -80,7 +78,7 @@ class DifferentWorld : public RangeWorld {
   const WorldDifferences& differences() const { return differences_; }
 
  private:
-  // The map's world under map_transform, with the see-through bands taken out.
+  // The map's world with the see-through bands taken out (map frame).
   std::optional<double> cast_map(const Eigen::Vector2d& origin, double angle, double max_range) const;
   std::shared_ptr<const RangeWorld> map_world_;
   WorldDifferences differences_;
