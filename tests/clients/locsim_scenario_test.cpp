@@ -195,3 +195,18 @@ TEST_F(ScenarioFiles, KidnapAndWrongStartErrorsNameTheKey) {
   text.replace(text.find("initial_pose_offset: [0.1, 0, 0]"), 32, "wrong_start: {min_distance_m: 15}");
   EXPECT_NE(error_of(text).find("exclude"), std::string::npos) << error_of(text);
 }
+
+TEST_F(ScenarioFiles, DifferencesChangeTheWorldNotTheMapAndTheirErrorsNameTheKey) {
+  // A box across the corridor 2 m ahead of the robot: the world has it, the map does not.
+  const std::string text = scenario("", "differences:\n  clutter: [{centre: [5.2, 1], size: [0.2, 1.8]}]\n");
+  ASSERT_EQ(error_of(text), "");
+  const auto s = parse_scenario(text, "test.yaml", root_ / "scenarios");
+  EXPECT_NEAR(*s.world->cast({3.2, 1}, 0.0, 30.0), 1.9, 1e-9);
+  EXPECT_EQ(s.map.lines.size(), locd::load_feature_map((root_ / "maps" / "corridor.yaml").string(), 100000).lines.size());
+  const std::string door = error_of(scenario("", "differences:\n  doors: [{from: [1, 0], to: [2, 0], world: ajar}]\n"));
+  EXPECT_NE(door.find("'differences.doors[0].world'"), std::string::npos) << door;
+  EXPECT_NE(door.find("allowed"), std::string::npos) << door;
+  const std::string laser = error_of(scenario("", "").replace(scenario("", "").find("laser: {rate_hz: 25}"), 20,
+                                                             "laser: {rate_hz: 25, dropouts: {rate: 2}}"));
+  EXPECT_NE(laser.find("'sensors.laser.dropouts.rate'"), std::string::npos) << laser;
+}

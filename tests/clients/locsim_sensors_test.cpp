@@ -198,3 +198,67 @@ TEST(Trajectory, OpenPathStopsAtTheLastWaypoint) {
   const auto& b = trajectory.samples()[501];
   EXPECT_NEAR(mid.pose.x, 0.5 * (a.pose.x + b.pose.x), 1e-12);
 }
+
+TEST(LaserScanner, DropoutsHitTheirRateInBurstsOfTheirMeanLengthWithEveryKind) {
+  // A wall 5 m ahead in every direction of a 360-degree scan (a closed box): every undropped beam
+  // returns about 5 m, so a dropped one is told by its reading.
+  auto box = std::make_shared<SegmentWorld>(
+      std::vector<Segment>{{{-5, -5}, {5, -5}}, {{5, -5}, {5, 5}}, {{5, 5}, {-5, 5}}, {{-5, 5}, {-5, -5}}});
+  for (const auto& [rate, burst] : std::vector<std::pair<double, double>>{{0.05, 1.0}, {0.1, 4.0}, {0.3, 10.0}}) {
+    LaserScannerConfig config;
+    config.fov_deg = 360.0;
+    config.beams = 720;
+    config.mount = Pose2(0, 0, 0);
+    config.dropouts.rate = rate;
+    config.dropouts.burst_beams = burst;
+    config.dropouts.kinds = {Dropout::kNan, Dropout::kZero, Dropout::kMaxRange, Dropout::kInfinity};
+    LaserScannerModel laser(config, box);
+    std::mt19937_64 rng(5);
+    size_t beams = 0, dropped = 0, bursts = 0, nan = 0, zero = 0, max_range = 0, inf = 0;
+    for (int k = 0; k < 400; ++k) {
+      const locd::LaserScan scan = laser.scan(Pose2(0, 0, 0.001 * k), k, rng);
+      bool previous = false;
+      for (float r : scan.ranges) {
+        const bool is_nan = std::isnan(r), is_zero = r == 0.0f, is_max = r == scan.range_max, is_inf = std::isinf(r);
+        const bool out = is_nan || is_zero || is_max || is_inf;
+        ++beams;
+        dropped += out;
+        bursts += out && !previous;
+        nan += is_nan;
+        zero += is_zero;
+        max_range += is_max;
+        inf += is_inf;
+        if (!out) EXPECT_GT(r, 4.9f);
+        previous = out;
+      }
+    }
+    const double measured = static_cast<double>(dropped) / beams;
+    // 288 000 beams in bursts of mean length L: the share's standard error is about
+    // sqrt(rate (1 - rate) L' / beams) with L' ~ 2 L; 5 sigma is well inside 15 % of the rate.
+    EXPECT_NEAR(measured, rate, 0.15 * rate) << "rate " << rate << " burst " << burst;
+    EXPECT_NEAR(static_cast<double>(dropped) / bursts, burst, 0.15 * burst) << "rate " << rate;
+    for (size_t n : {nan, zero, max_range, inf}) EXPECT_NEAR(static_cast<double>(n) / dropped, 0.25, 0.06);
+  }
+}
+
+TEST(LaserScanner, DropoutErrorsNameKeyValueAndWhatIsAllowed) {
+  const auto error = [](const std::string& yaml) {
+    try {
+      LaserScannerConfig::from_params(locd::Params::parse(yaml, "laser.yaml"));
+    } catch (const locd::ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(error("dropouts: {rate: 0.1, burst_beams: 3, kinds: [nan, zero, max_range, inf]}\n"), "");
+  const std::string kind = error("dropouts: {rate: 0.1, kinds: [nan, static]}\n");
+  EXPECT_NE(kind.find("'dropouts.kinds'"), std::string::npos) << kind;
+  EXPECT_NE(kind.find("'static'"), std::string::npos) << kind;
+  EXPECT_NE(kind.find("allowed: nan, zero, max_range, inf"), std::string::npos) << kind;
+  const std::string rate = error("dropouts: {rate: 1.5}\n");
+  EXPECT_NE(rate.find("'dropouts.rate'"), std::string::npos) << rate;
+  EXPECT_NE(rate.find("[0, 1)"), std::string::npos) << rate;
+  const std::string reach = error("dropouts: {rate: 0.6, burst_beams: 1}\n");
+  EXPECT_NE(reach.find("cannot be reached"), std::string::npos) << reach;
+  EXPECT_NE(error("dropouts: {rate: 0.1, burst: 3}\n").find("unknown parameter 'dropouts.burst'"), std::string::npos);
+}

@@ -8,6 +8,7 @@
 #include "locd/sdk/plugin.hpp"
 #include "locd/sdk/plugin_config.hpp"
 #include "locd/sim/grid_world.hpp"
+#include "locd/sim/world_differences.hpp"
 
 namespace locd::sim {
 
@@ -64,7 +65,7 @@ RobotSpec parse_robot(const Params& p) {
 Scenario parse_scenario(const std::string& text, const std::string& source, const fs::path& base_directory) {
   const Params p = Params::parse(text, source);
   p.expect_only({"name", "seed", "duration_s", "map", "map_directories", "robot", "sensors", "localizer",
-                 "evaluation", "kidnap"});
+                 "evaluation", "kidnap", "differences"});
   Scenario s;
   s.file = source;
   s.name = p.required_text("name");
@@ -96,7 +97,7 @@ Scenario parse_scenario(const std::string& text, const std::string& source, cons
     const fs::path folder = fs::path(s.map_name).parent_path();
     const MapResolver resolver(s.map_directories);
     try {
-      s.world = std::make_shared<GridWorld>(std::make_shared<grid_mcl::OccupancyMap>(grid_mcl::load_occupancy_map(
+      s.world = std::make_shared<GridWorld>(std::make_shared<OccupancyMap>(load_occupancy_map(
           s.map_file, [&](const std::string& image) { return resolver.resolve((folder / image).lexically_normal().string()); },
           Limits{}.max_map_cells)));
     } catch (const ConfigError& e) {
@@ -105,6 +106,10 @@ Scenario parse_scenario(const std::string& text, const std::string& source, cons
   } else {
     s.map = load_feature_map(s.map_file.string(), 100000);
     s.world = std::make_shared<SegmentWorld>(SegmentWorld::from_feature_map(s.map));
+  }
+
+  if (p.has("differences")) {
+    s.world = std::make_shared<DifferentWorld>(s.world, parse_world_differences(p.child("differences")));
   }
 
   if (!p.has("robot")) p.fail("robot", "is missing; expected {id, start, waypoints, ...}");

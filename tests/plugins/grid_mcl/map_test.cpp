@@ -218,7 +218,7 @@ TEST(OccupancyMapCast, AgreesWithAFineSteppedReference) {
         }
       }
       if (expected && *expected > 8.0) expected.reset();
-      const auto got = map.cast(origin, a, 8.0, stop_at_unknown);
+      const auto got = cast(map, origin, a, 8.0, stop_at_unknown);
       ASSERT_EQ(got.has_value(), expected.has_value()) << trial << " " << stop_at_unknown;
       if (got) {
         EXPECT_NEAR(*got, *expected, 3e-4) << trial;

@@ -54,7 +54,7 @@ LaserScan scan_from(const Pose2& pose, int beams = 361) {
   s.range_max = 8.0f;
   const Pose2 sensor = pose * Pose2(0.2, 0.0, 0.0);
   for (int i = 0; i < beams; ++i) {
-    const auto r = room()->map.cast({sensor.x, sensor.y}, sensor.theta + s.angle(i), 8.0);
+    const auto r = cast(room()->map, {sensor.x, sensor.y}, sensor.theta + s.angle(i), 8.0);
     s.ranges.push_back(r ? static_cast<float>(*r) : std::numeric_limits<float>::infinity());
   }
   return s;
@@ -142,7 +142,7 @@ TEST(GridMclSeeThrough, MarchOverTheFieldAgreesWithCastingEveryBeam) {
       if (!scan.hit[k]) continue;
       ++hits;
       const double before = (1.0 - fraction) * scan.range[k] - margin;
-      if (before > 0.0 && room()->map.cast(sensor, pose.theta + scan.bearing[k], before)) ++through;
+      if (before > 0.0 && cast(room()->map, sensor, pose.theta + scan.bearing[k], before)) ++through;
     }
     return static_cast<double>(through) / static_cast<double>(hits);
   };

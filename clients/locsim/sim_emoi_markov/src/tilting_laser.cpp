@@ -3,7 +3,7 @@
 #include <cmath>
 #include <limits>
 
-#include "locd/emoi_markov/local_elevation_map.hpp"
+#include <Eigen/Geometry>
 
 namespace locd::sim::emoi {
 
@@ -78,8 +78,12 @@ LaserScan simulate_scan(const TiltingLaserConfig& config, const locd::emoi::Elev
   LaserScan scan;
   scan.header.stamp_ns = stamp_ns;
   scan.header.frame_id = "laser";
-  scan.sensor_pose = locd::emoi::tilting_laser_pose(config.x_tilt, config.z_tilt, config.x_laser, config.z_laser,
-                                                    tilt_at(config, time_s));
+  // The mount, composed here rather than by the plugin's tilting_laser_pose (the truth must not
+  // share the plugin's kinematics): the tilt axis at (x_tilt, 0, z_tilt), turned about y by the
+  // tilt angle, the sensing point at (x_laser, 0, z_laser) in the tilting frame.
+  scan.sensor_pose = Eigen::Translation3d(config.x_tilt, 0.0, config.z_tilt) *
+                     Eigen::AngleAxisd(tilt_at(config, time_s), Eigen::Vector3d::UnitY()) *
+                     Eigen::Translation3d(config.x_laser, 0.0, config.z_laser);
   scan.angle_min = static_cast<float>(-config.fov_rad / 2);
   scan.angle_increment = static_cast<float>(config.fov_rad / (config.beams - 1));
   scan.range_min = static_cast<float>(config.range_min_m);

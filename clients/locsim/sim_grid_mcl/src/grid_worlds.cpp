@@ -12,7 +12,6 @@ namespace locd::sim::grid {
 
 namespace {
 
-using grid_mcl::OccupancyMap;
 
 // Obstacles drawn into a grid; finish() frees what is reachable from a seed.
 class Canvas {

@@ -15,11 +15,11 @@ int main(int argc, char** argv) {
   try {
     if (what == "corridor" && argc == 4) {
       const FeatureMap2D walls = load_feature_map(argv[2], 100000);
-      grid_mcl::save_occupancy_map(sim::grid::rasterize_walls(walls, 0.05, 1.0, Eigen::Vector2d(3.0, 1.0)), argv[3], ".pgm");
+      save_occupancy_map(sim::grid::rasterize_walls(walls, 0.05, 1.0, Eigen::Vector2d(3.0, 1.0)), argv[3], ".pgm");
       return 0;
     }
     if (what == "warehouse" && argc == 3) {
-      grid_mcl::save_occupancy_map(sim::grid::make_warehouse(), argv[2], ".png");
+      save_occupancy_map(sim::grid::make_warehouse(), argv[2], ".png");
       return 0;
     }
   } catch (const std::exception& e) {

@@ -157,7 +157,7 @@ double LaserModel::factor_direct(const Pose2& pose, const PreparedScan& scan, do
   size_t counted = 0;
   for (size_t k = 0; k < scan.range.size(); ++k) {
     if (type_ == LaserModelType::kBeam) {
-      const auto expected = map.cast(sensor, pose.theta + scan.bearing[k], scan.z_max, true);
+      const auto expected = cast(map, sensor, pose.theta + scan.bearing[k], scan.z_max, true);
       const double pz = beam_pz(scan.range[k], expected.value_or(scan.z_max), scan.z_max);
       sum += pz * pz * pz;
       measured += pz;
@@ -213,7 +213,7 @@ double LaserModel::see_through(const Pose2& pose, const PreparedScan& scan, doub
       // Off the grid cast clips the ray to it (it may come back in).
       const double clear = inside ? field.at(static_cast<int>(p.y()), static_cast<int>(p.x())) * kUnit - M_SQRT2 : 0.0;
       if (clear < 1.0) {
-        through += map.cast(g.origin + p * g.resolution, angle, (end - t) * g.resolution).has_value();
+        through += cast(map, g.origin + p * g.resolution, angle, (end - t) * g.resolution).has_value();
         break;
       }
       t += clear;

@@ -14,6 +14,8 @@
 //               wrong_start: {min_distance_m: 15}}   # optional, instead of initial_pose_offset
 //   kidnap: {at_s: 40, min_distance_m: 10}           # optional; or {at_s: 40, to: [x, y, yaw]}
 //   evaluation: {convergence_threshold_m: 0.2, detection_deadline_s: 5, relocalization_deadline_s: 10}
+//   differences: {map_transform, clutter, people, walls, doors, glass}   # optional: the world is not
+//                                                    #   its map (world_differences.hpp)
 //
 // A wrong start gives the plugin a pose on the route (a point of the waypoint polyline, heading
 // along it) at least min_distance_m from the true start, drawn from the run's seed, with the

@@ -28,6 +28,11 @@ class RangeWorld {
   virtual ~RangeWorld() = default;
   // Range to the first obstacle along the ray from origin at angle (map frame), if within max_range.
   virtual std::optional<double> cast(const Eigen::Vector2d& origin, double angle, double max_range) const = 0;
+  // The same at time t (s since the start) in a world with moving things (people walking).
+  virtual std::optional<double> cast_at(double /*t*/, const Eigen::Vector2d& origin, double angle,
+                                        double max_range) const {
+    return cast(origin, angle, max_range);
+  }
 };
 
 class SegmentWorld : public RangeWorld {

@@ -15,12 +15,12 @@
 #include <cstdint>
 #include <vector>
 
-#include "locd/grid_mcl/occupancy_map.hpp"
+#include "locd/sdk/occupancy_map.hpp"
 #include "locd/sdk/feature_map.hpp"
 
 namespace locd::sim::grid {
 
-grid_mcl::OccupancyMap rasterize_walls(const FeatureMap2D& map, double resolution, double margin,
+OccupancyMap rasterize_walls(const FeatureMap2D& map, double resolution, double margin,
                                        const Eigen::Vector2d& free_seed);
 
 struct WarehouseConfig {
@@ -28,7 +28,7 @@ struct WarehouseConfig {
   uint64_t seed = 3;  // pallet stacks in the staging area
 };
 
-grid_mcl::OccupancyMap make_warehouse(const WarehouseConfig& config = {});
+OccupancyMap make_warehouse(const WarehouseConfig& config = {});
 // The route the warehouse scenario drives (m): staging area, main aisles, one rack aisle.
 std::vector<Eigen::Vector2d> warehouse_route();
 
