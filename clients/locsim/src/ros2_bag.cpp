@@ -1,6 +1,7 @@
 #include "locd/sim/ros2_bag.hpp"
 
 #include <cstdio>
+#include <cstdlib>
 #include <optional>
 
 #include "locd/dds/ros2.hpp"
@@ -19,7 +20,9 @@ namespace ros2 = dds::ros2;
 
 std::string seconds_text(int64_t stamp_ns) {
   char text[48];
-  std::snprintf(text, sizeof text, "%.9f s", static_cast<double>(stamp_ns) * 1e-9);
+  const int64_t ns = stamp_ns % 1'000'000'000;
+  std::snprintf(text, sizeof text, "%s%lld.%09lld s", stamp_ns < 0 ? "-" : "", std::llabs(static_cast<long long>(stamp_ns / 1'000'000'000)),
+                std::llabs(static_cast<long long>(ns)));
   return text;
 }
 
