@@ -122,7 +122,7 @@ TEST_F(Ros2BagReplay, BagIntoRunningLocdTracksTheTruth) {
 
 TEST_F(Ros2BagReplay, CompressedAndPlainChunksReplayTheSame) {
   // Offline (no DDS): the same arithmetic in the same order, so zstd and uncompressed chunks give
-  // the same bits; and a renamed bag maps by --topic.
+  // the same bits; a renamed bag maps by --topic; a late /tf_static changes nothing.
   const Result zstd = replay("bag.mcap", {"--offline", "--plugin-dir", locd::test::plugin_dir(), "--map-dir", maps(),
                                           "--initial-pose", "reference", "--reference", file("ref.tum").string(), "--json"},
                              "zstd.log");
@@ -141,6 +141,14 @@ TEST_F(Ros2BagReplay, CompressedAndPlainChunksReplayTheSame) {
                                 "renamed_ok.log");
   ASSERT_EQ(renamed.exit_code, 0) << renamed.output;
   EXPECT_EQ(renamed.json["ape"], zstd.json["ape"]);
+
+  // /tf_static recorded after the first scans: static transforms hold at any time.
+  write_bag("late_static.mcap", "late_static.tum", {"--variant", "late-static"});
+  const Result late = replay("late_static.mcap", {"--offline", "--plugin-dir", locd::test::plugin_dir(), "--map-dir", maps(),
+                                                  "--initial-pose", "reference", "--reference", file("ref.tum").string(), "--json"},
+                             "late_static.log");
+  ASSERT_EQ(late.exit_code, 0) << late.output;
+  EXPECT_EQ(late.json["ape"], zstd.json["ape"]);
 }
 
 TEST_F(Ros2BagReplay, BadBagsAndReferencesAreRefusedBeforeAnythingIsSent) {

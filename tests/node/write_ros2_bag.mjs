@@ -8,8 +8,9 @@
 // (base_link -> laser, from the scans' sensor pose). Stamps are the simulated ones plus 1.7e9 s
 // (an epoch clock, as a real robot's). Also writes the ground truth as a TUM trajectory.
 //   node write_ros2_bag.mjs SIM.mcap OUT.mcap OUT.tum [--compression zstd|none] [--variant V]
-// Variants (bad input for the reader): renamed (/front_scan, /wheel_odom), wrong-type (/scan
-// declared as my_msgs/msg/Scan), backwards (one scan stamped before the one before it).
+// Variants: renamed (/front_scan, /wheel_odom), wrong-type (/scan declared as my_msgs/msg/Scan),
+// backwards (the 20th scan stamped before the one before it), late-static (/tf_static written
+// after the 9th scan, as a recorder that subscribed to it late).
 // Prints one JSON line: what it wrote.
 import fs from "node:fs";
 import { McapIndexedReader, McapWriter } from "@mcap/core";
@@ -159,14 +160,15 @@ for (const { kind, msg: m } of sim) {
       transform: { translation: m.pose.position, rotation: quaternion(m.pose.orientation) } }] });
   } else if (kind === "locd/scan") {
     const frame = m.header.frame_id || "laser";
-    if (!wroteStatic) {  // the laser's mount, as robot_state_publisher latches it
+    ++scans;
+    if (!wroteStatic && (variant !== "late-static" || scans === 10)) {  // the laser's mount, latched
       wroteStatic = true;
       await write("/tf_static", stamp, { transforms: [{
         header: { stamp: time(stamp), frame_id: "base_link" }, child_frame_id: frame,
         transform: { translation: m.sensor_pose.position, rotation: quaternion(m.sensor_pose.orientation) } }] });
     }
     let scanStamp = stamp;
-    if (variant === "backwards" && ++scans === 20) scanStamp = previousScanStamp - 50_000_000n;
+    if (variant === "backwards" && scans === 20) scanStamp = previousScanStamp - 50_000_000n;
     previousScanStamp = scanStamp;
     const n = m.ranges.length;
     await write(scanTopic, stamp, {

@@ -71,6 +71,30 @@ BagSummary read_ros2_bag(const std::string& file, const Ros2Config& mapping, con
     throw BagError(e.what());
   }
   server::TransformBuffer tf;
+  // Static transforms hold at any time, and a recorder may have written the first scans before
+  // the latched /tf_static: every one is read first (when frames come from tf at all).
+  if (mapping.sensor_frames.empty()) {
+    const std::string static_topic = mapping.tf_static_topic();
+    uint64_t index = 0;
+    try {
+      mcap::Reader(file).read([&](const mcap::Message& m) {
+        ++index;
+        if (m.channel->topic != static_topic || !m.schema || !same_type(m.schema->name, "tf2_msgs/msg/TFMessage") ||
+            m.channel->message_encoding != "cdr") {
+          return;  // the main pass names what is wrong with it
+        }
+        try {
+          const auto sample = mcap::decode(dds::descriptor<ros2::TFMessage>(), m.data, m.size);
+          for (const auto& t : ros2::from_ros2(*static_cast<const ros2::TFMessage*>(sample.get()))) tf.add(t, true);
+        } catch (const std::exception& e) {
+          throw BagError(file + ": message " + std::to_string(index) + " (topic '" + escaped(static_topic) +
+                         "', tf2_msgs/msg/TFMessage): " + e.what());
+        }
+      });
+    } catch (const mcap::FormatError& e) {
+      throw BagError(std::string(e.what()) + " (after message " + std::to_string(index) + ")");
+    }
+  }
   const ros2::Frames frames{mapping.map_frame, mapping.base_frame, mapping.sensor_frames, &tf};
   std::map<uint16_t, ChannelUse> channels;
   BagSummary summary;

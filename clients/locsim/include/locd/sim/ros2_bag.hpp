@@ -9,7 +9,8 @@
 // image, imu, odometry, tf, tf_static; base_frame; sensor_frames), as a ROS 2 robot's session
 // config gives it; without one, Nav2 AMCL's names (/scan, /odom, /tf, /tf_static). A sensor
 // frame's pose in the base frame comes from sensor_frames or, without them, from the bag's
-// /tf_static and /tf at the message's stamp (the server's TransformBuffer).
+// /tf_static (all of it read first: static transforms hold at any time, and a recorder may write
+// the first scans before them) and /tf at the message's stamp (the server's TransformBuffer).
 //
 // Every error is a BagError naming the file, the message (its index in the file, from 1), the
 // topic and the field: a mapped topic of another type, a message that does not decode or convert,
