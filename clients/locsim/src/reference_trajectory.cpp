@@ -90,12 +90,21 @@ AbsolutePoseError absolute_pose_error(const std::map<int64_t, Eigen::Isometry3d>
   std::vector<double> errors;
   double sum = 0, sum_squares = 0, heading_squares = 0;
   size_t over = 0;
+  std::vector<double> relative;
+  std::optional<std::pair<Eigen::Isometry3d, Eigen::Isometry3d>> previous;  // estimate, reference
   for (const auto& [stamp, pose] : poses) {
     const auto truth = reference.at(stamp);
     if (!truth) {
       ++e.not_covered;
+      previous.reset();
       continue;
     }
+    if (previous) {
+      const Eigen::Isometry3d error =
+          (previous->second.inverse() * *truth).inverse() * (previous->first.inverse() * pose);
+      relative.push_back(error.translation().norm());
+    }
+    previous = std::make_pair(pose, *truth);
     const double d = (pose.translation() - truth->translation()).norm();
     const double heading = std::abs(std::remainder(yaw_of(pose) - yaw_of(*truth), 2.0 * M_PI)) * 180.0 / M_PI;
     errors.push_back(d);
@@ -114,6 +123,18 @@ AbsolutePoseError absolute_pose_error(const std::map<int64_t, Eigen::Isometry3d>
   e.median_m = percentile(errors, 50.0);
   e.heading_rmse_deg = std::sqrt(heading_squares / n);
   e.share_over_half_metre = static_cast<double>(over) / n;
+  e.rpe_pairs = relative.size();
+  if (!relative.empty()) {
+    double rsum = 0, rsquares = 0;
+    for (double r : relative) {
+      rsum += r;
+      rsquares += r * r;
+      e.rpe_max_m = std::max(e.rpe_max_m, r);
+    }
+    e.rpe_rmse_m = std::sqrt(rsquares / static_cast<double>(relative.size()));
+    e.rpe_mean_m = rsum / static_cast<double>(relative.size());
+    e.rpe_median_m = percentile(relative, 50.0);
+  }
   return e;
 }
 

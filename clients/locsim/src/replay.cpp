@@ -398,6 +398,22 @@ Ros2Config bag_mapping(const ReplayOptions& options, const PluginConfig& config)
   return mapping;
 }
 
+// "X,Y,YAW" (m, m, rad) as a planar pose; ConfigError naming the option otherwise.
+Eigen::Isometry3d parse_xy_yaw(const std::string& text, const std::string& option) {
+  double x = 0, y = 0, yaw = 0;
+  char c1 = 0, c2 = 0, rest = 0;
+  std::istringstream in(text);
+  if (!(in >> x >> c1 >> y >> c2 >> yaw) || c1 != ',' || c2 != ',' || (in >> rest) || !std::isfinite(x) ||
+      !std::isfinite(y) || !std::isfinite(yaw)) {
+    throw ConfigError(option + " '" + escaped(text) + "': expected X,Y,YAW (m, m, rad)" +
+                      (option == "--initial-pose" ? " or 'reference'" : ""));
+  }
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(x, y, 0);
+  T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return T;
+}
+
 // AMCL's initial_cov defaults: 0.5 m, 0.5 m, pi/12 rad standard deviations.
 PoseEstimate initial_pose_at(const Eigen::Isometry3d& pose, int64_t stamp_ns) {
   PoseEstimate p;
@@ -466,19 +482,14 @@ int run_bag_replay(const ReplayOptions& options) {
         throw ReferenceError("reference " + reference->file() + " holds no pose at the bag's first scan (" +
                              std::to_string(static_cast<double>(at) * 1e-9) + " s) for --initial-pose reference");
       }
-      start = initial_pose_at(*pose, at);
+      Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
+      if (!options.initial_offset.empty()) offset = parse_xy_yaw(options.initial_offset, "--initial-offset");
+      start = initial_pose_at(*pose * offset, at);
     } else if (!options.initial_pose.empty()) {
-      double x = 0, y = 0, yaw = 0;
-      char c1 = 0, c2 = 0, rest = 0;
-      std::istringstream in_pose(options.initial_pose);
-      if (!(in_pose >> x >> c1 >> y >> c2 >> yaw) || c1 != ',' || c2 != ',' || (in_pose >> rest) || !std::isfinite(x) ||
-          !std::isfinite(y) || !std::isfinite(yaw)) {
-        throw ConfigError("--initial-pose '" + escaped(options.initial_pose) + "': expected X,Y,YAW (m, m, rad) or 'reference'");
-      }
-      Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-      T.translation() = Eigen::Vector3d(x, y, 0);
-      T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-      start = initial_pose_at(T, checked.first_stamp_ns);
+      if (!options.initial_offset.empty()) throw ConfigError("--initial-offset applies to --initial-pose reference");
+      start = initial_pose_at(parse_xy_yaw(options.initial_pose, "--initial-pose"), checked.first_stamp_ns);
+    } else if (!options.initial_offset.empty()) {
+      throw ConfigError("--initial-offset applies to --initial-pose reference");
     }
   } catch (const std::exception& e) {
     std::cerr << "locsim replay: " << e.what() << "\n";
@@ -584,6 +595,8 @@ int run_bag_replay(const ReplayOptions& options) {
                   {"mean_m", ape->mean_m}, {"median_m", ape->median_m}, {"max_m", ape->max_m},
                   {"heading_rmse_deg", ape->heading_rmse_deg}, {"heading_max_deg", ape->heading_max_deg},
                   {"share_over_0_5_m", ape->share_over_half_metre}};
+    out["rpe"] = {{"pairs", ape->rpe_pairs}, {"rmse_m", ape->rpe_rmse_m}, {"mean_m", ape->rpe_mean_m},
+                  {"median_m", ape->rpe_median_m}, {"max_m", ape->rpe_max_m}};
   }
   if (options.json) {
     std::cout << out.dump() << "\n";
@@ -596,7 +609,8 @@ int run_bag_replay(const ReplayOptions& options) {
       log << "APE against " << options.reference_file << " (" << ape->poses << " poses, " << ape->not_covered
           << " outside the reference): RMSE " << ape->rmse_m << " m, mean " << ape->mean_m << " m, median " << ape->median_m
           << " m, max " << ape->max_m << " m; heading RMSE " << ape->heading_rmse_deg << " deg; "
-          << 100.0 * ape->share_over_half_metre << " % over 0.5 m\n";
+          << 100.0 * ape->share_over_half_metre << " % over 0.5 m; RPE (1 pose apart, " << ape->rpe_pairs
+          << " pairs): RMSE " << ape->rpe_rmse_m << " m, max " << ape->rpe_max_m << " m\n";
     }
   }
   if (stopped) return 2;

@@ -39,6 +39,7 @@ struct ReplayOptions {
   std::vector<std::string> topic_overrides;  // KEY=NAME (KEY of kBagTopicKeys; NAME "none" drops it)
   std::string base_frame;                    // overrides ros2.base_frame
   std::string initial_pose;                  // "X,Y,YAW" or "reference"; empty: none (global localization)
+  std::string initial_offset;                // "DX,DY,DYAW" in the robot's frame, added to --initial-pose reference
   std::string reference_file;                // TUM
 };
 

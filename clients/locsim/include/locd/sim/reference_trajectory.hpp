@@ -52,6 +52,10 @@ struct AbsolutePoseError {
   double rmse_m = 0, mean_m = 0, median_m = 0, max_m = 0;
   double heading_rmse_deg = 0, heading_max_deg = 0;
   double share_over_half_metre = 0;  // 0..1
+  // RPE as evo_rpe's default (delta 1 pose, translation part): between consecutive compared
+  // poses i, i+1, the translation of (Q_i^-1 Q_i+1)^-1 (P_i^-1 P_i+1), P estimates, Q reference.
+  size_t rpe_pairs = 0;
+  double rpe_rmse_m = 0, rpe_mean_m = 0, rpe_median_m = 0, rpe_max_m = 0;
 };
 AbsolutePoseError absolute_pose_error(const std::map<int64_t, Eigen::Isometry3d>& poses, const ReferenceTrajectory& reference);
 
