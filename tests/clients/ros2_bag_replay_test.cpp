@@ -118,6 +118,8 @@ TEST_F(Ros2BagReplay, BagIntoRunningLocdTracksTheTruth) {
   EXPECT_LT(j["ape"]["max_m"].get<double>(), 0.5) << j.dump();
   EXPECT_EQ(j["ape"]["share_over_0_5_m"], 0.0) << j.dump();
   EXPECT_LT(j["ape"]["heading_rmse_deg"].get<double>(), 3.0) << j.dump();
+  EXPECT_GE(j["rpe"]["pairs"].get<int>(), j["poses"].get<int>() - 1) << j.dump();
+  EXPECT_LT(j["rpe"]["rmse_m"].get<double>(), 0.05) << j.dump();
 }
 
 TEST_F(Ros2BagReplay, CompressedAndPlainChunksReplayTheSame) {
