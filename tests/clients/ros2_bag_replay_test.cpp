@@ -143,6 +143,15 @@ TEST_F(Ros2BagReplay, CompressedAndPlainChunksReplayTheSame) {
                                 "renamed_ok.log");
   ASSERT_EQ(renamed.exit_code, 0) << renamed.output;
   EXPECT_EQ(renamed.json["ape"], zstd.json["ape"]);
+  // The same mapping as a ros2: section, as a ROS 2 robot's session config has it.
+  std::ofstream(file("topics.yaml")) << "ros2:\n  topics:\n    scan: /front_scan\n    odometry: wheel_odom\n";
+  const Result mapped = replay("renamed.mcap", {"--offline", "--plugin-dir", locd::test::plugin_dir(), "--map-dir", maps(),
+                                                "--topics", file("topics.yaml").string(), "--initial-pose", "reference",
+                                                "--reference", file("ref.tum").string(), "--json"},
+                               "renamed_topics.log");
+  ASSERT_EQ(mapped.exit_code, 0) << mapped.output;
+  EXPECT_EQ(mapped.json["ape"], zstd.json["ape"]);
+  EXPECT_EQ(mapped.json["topics"]["/front_scan"]["mapped_as"], "scan");
 
   // /tf_static recorded after the first scans: static transforms hold at any time.
   write_bag("late_static.mcap", "late_static.tum", {"--variant", "late-static"});
