@@ -20,7 +20,8 @@ inline std::string node_directory() { return binary_dir() + "/node"; }
 inline void require_node_packages() {
   const std::string dir = node_directory();
   if (!std::filesystem::exists(dir + "/node_modules/@mcap/core") ||
-      !std::filesystem::exists(dir + "/node_modules/@foxglove/ws-protocol")) {
+      !std::filesystem::exists(dir + "/node_modules/@foxglove/ws-protocol") ||
+      !std::filesystem::exists(dir + "/node_modules/@foxglove/rosmsg2-serialization")) {
     throw std::runtime_error("the npm test clients are not installed in " + dir +
                              "/node_modules: run scripts/node-setup (npm registry needed; log in " + dir + "/npm.log)");
   }

@@ -35,6 +35,7 @@ inline std::string read_text(const std::filesystem::path& file) {
 //   190-199 addressing (partitions, robot ids)
 //   223-227 worker faults and restarts (issue 27)  228-230 fleet stall, ownership; 229 FleetHosts stall
 //   217-222 ROS 2 as a Nav2 AMCL drop-in (issue 24)
+//   213-216 ROS 2 bag replay (issue 21; DDS allows domain ids up to 232 only)
 //   231 worker sandbox (issue 23: the range it was given, 235-242, lies past Cyclone's last domain, 232)
 //   0 the demo (LOCD_DOMAIN overrides)
 }  // namespace locd::test

@@ -48,6 +48,13 @@ const char* kUsage =
     "      a recording (locctl record, locsim run --mcap) fed again: into a running locd (default real time),\n"
     "      or --offline through the plugin its session request names (default as fast as possible);\n"
     "      compares the poses with the recorded ones. Maps: --map-dir, default config/maps\n"
+    "  locsim replay BAG.mcap --config ROBOT.yaml [--topics MAP.yaml] [--topic KEY=NAME]... [--base-frame F]\n"
+    "                [--initial-pose X,Y,YAW | --initial-pose reference [--initial-offset DX,DY,DYAW]]\n"
+    "                [--reference REF.tum] [--robot R]\n"
+    "                [--offline | --domain N] [--rate X | --fast] [--json]\n"
+    "      a ROS 2 bag (ros2 bag record -s mcap) as robot R (default robot1) with the plugin config ROBOT.yaml;\n"
+    "      topics from MAP.yaml's or ROBOT.yaml's ros2: section or AMCL's (/scan, /odom, /tf, /tf_static),\n"
+    "      KEY one of scan cloud image imu odometry tf tf_static; --reference: APE, RPE against a TUM trajectory\n"
     "  locsim fleet SCENARIO.yaml --robots N [--domain N] [--rate X] [--duration S] [--seed N]\n"
     "               [--distinct K] [--server-pid PID]... [--server-timeout S] [--json] [--plot FILE.png]\n"
     "               [--outage-report]\n"
@@ -131,11 +138,23 @@ ReplayOptions parse_replay(const std::vector<std::string>& args) {
   app.add_option("--robot", o.robots)->expected(1)->take_all();
   app.add_option("--plugin-dir", plugin_directories)->expected(1)->take_all();
   app.add_option("--map-dir", map_directories)->expected(1)->take_all();
+  app.add_option("--config", o.config_file);
+  app.add_option("--topics", o.topics_file);
+  app.add_option("--topic", o.topic_overrides)->expected(1)->take_all();
+  app.add_option("--base-frame", o.base_frame);
+  app.add_option("--initial-pose", o.initial_pose);
+  app.add_option("--initial-offset", o.initial_offset);
+  app.add_option("--reference", o.reference_file);
   std::vector<std::string> rest(args.rbegin(), args.rend() - 1);
   try {
     app.parse(rest);
   } catch (const CLI::ParseError& e) {
     throw UsageError(std::string(e.what()) + " (locsim replay)");
+  }
+  if (o.config_file.empty() && (!o.topics_file.empty() || !o.topic_overrides.empty() || !o.base_frame.empty() ||
+                                !o.initial_pose.empty() || !o.initial_offset.empty() || !o.reference_file.empty())) {
+    throw UsageError("--topics, --topic, --base-frame, --initial-pose, --initial-offset and --reference replay a ROS 2 bag: give its "
+                     "plugin config with --config");
   }
   if (o.file.empty()) throw UsageError("locsim replay needs an IN.mcap");
   if (fast && !rate.empty()) throw UsageError("--fast and --rate exclude each other");

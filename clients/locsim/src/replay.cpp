@@ -6,6 +6,9 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <fstream>
+#include <random>
+#include <sstream>
 #include <iostream>
 #include <map>
 #include <mutex>
@@ -21,6 +24,8 @@
 #include "locd/sdk/robot_id.hpp"
 #include "locd/sdk/text.hpp"
 #include "locd/sdk/validate.hpp"
+#include "locd/sim/reference_trajectory.hpp"
+#include "locd/sim/ros2_bag.hpp"
 
 namespace locd::sim {
 namespace {
@@ -113,7 +118,7 @@ using PoseTrack = std::map<std::string, std::map<int64_t, Eigen::Isometry3d>>;
 
 struct RobotReport {
   std::string plugin;
-  uint64_t fed = 0, rejected = 0, no_session = 0;
+  uint64_t fed = 0, rejected = 0, no_session = 0, dropped = 0;
   std::string last_error;
 };
 
@@ -230,6 +235,7 @@ class DdsTarget : public Target {
     client_.on_pose([this](const PoseUpdate& p) {
       std::lock_guard<std::mutex> lock(mutex_);
       poses_[p.robot_id][p.estimate.header.stamp_ns] = p.estimate.pose;
+      changed_.notify_all();
     });
     client_.on_status([this](const SessionStatus& s) {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -281,6 +287,7 @@ class DdsTarget : public Target {
     for (const auto& s : client_.statuses()) {
       if (!robots.count(s.robot_id)) continue;
       robots[s.robot_id].rejected = s.rejected;
+      robots[s.robot_id].dropped = s.dropped;
       if (!s.last_error.empty()) robots[s.robot_id].last_error = s.last_error;
     }
   }
@@ -288,6 +295,16 @@ class DdsTarget : public Target {
   PoseTrack poses() override {
     std::lock_guard<std::mutex> lock(mutex_);
     return poses_;
+  }
+
+  // Waits until the robot has a pose stamped `stamp_ns` or later (the session caught up with a
+  // scan), at most `timeout`; false when none came.
+  bool await_pose(const std::string& robot, int64_t stamp_ns, std::chrono::milliseconds timeout) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    return changed_.wait_for(lock, timeout, [&] {
+      const auto it = poses_.find(robot);
+      return it != poses_.end() && !it->second.empty() && it->second.rbegin()->first >= stamp_ns;
+    });
   }
 
  private:
@@ -345,9 +362,270 @@ class DdsTarget : public Target {
   PoseTrack poses_;
 };
 
+// ---------------------------------------------------------------------------------- ROS 2 bags
+
+// The bag's topic mapping: --topics FILE's ros2 section, else the config's, else Nav2 AMCL's
+// names; then --topic KEY=NAME and --base-frame.
+Ros2Config bag_mapping(const ReplayOptions& options, const PluginConfig& config) {
+  Ros2Config mapping;
+  if (!options.topics_file.empty()) {
+    const Params document = Params::load_file(options.topics_file);
+    document.expect_only({"ros2"});
+    if (!document.has("ros2")) throw ConfigError(options.topics_file + ": no ros2: section (the topic mapping)");
+    mapping = parse_ros2_config(document.child("ros2"));
+  } else if (config.ros2) {
+    mapping = *config.ros2;
+  } else {
+    mapping = parse_ros2_config(Params(YAML::Node(YAML::NodeType::Map), "ros2"));
+  }
+  for (const std::string& o : options.topic_overrides) {
+    const size_t eq = o.find('=');
+    const std::string key = o.substr(0, eq);
+    const bool known = std::any_of(std::begin(kBagTopicKeys), std::end(kBagTopicKeys), [&](const char* k) { return key == k; });
+    if (eq == std::string::npos || !known || eq + 1 == o.size()) {
+      throw ConfigError("--topic '" + escaped(o) + "': expected KEY=NAME with KEY one of scan, cloud, image, imu, odometry, "
+                        "tf_static, tf and NAME a ROS 2 topic (or none)");
+    }
+    std::string name = o.substr(eq + 1);
+    if (name == "none") {
+      mapping.topics.erase(key);
+      continue;
+    }
+    if (name.front() != '/') name = "/" + name;
+    mapping.topics[key] = name;
+  }
+  if (!options.base_frame.empty()) mapping.base_frame = options.base_frame;
+  return mapping;
+}
+
+// "X,Y,YAW" (m, m, rad) as a planar pose; ConfigError naming the option otherwise.
+Eigen::Isometry3d parse_xy_yaw(const std::string& text, const std::string& option) {
+  double x = 0, y = 0, yaw = 0;
+  char c1 = 0, c2 = 0, rest = 0;
+  std::istringstream in(text);
+  if (!(in >> x >> c1 >> y >> c2 >> yaw) || c1 != ',' || c2 != ',' || (in >> rest) || !std::isfinite(x) ||
+      !std::isfinite(y) || !std::isfinite(yaw)) {
+    throw ConfigError(option + " '" + escaped(text) + "': expected X,Y,YAW (m, m, rad)" +
+                      (option == "--initial-pose" ? " or 'reference'" : ""));
+  }
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(x, y, 0);
+  T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return T;
+}
+
+// AMCL's initial_cov defaults: 0.5 m, 0.5 m, pi/12 rad standard deviations.
+PoseEstimate initial_pose_at(const Eigen::Isometry3d& pose, int64_t stamp_ns) {
+  PoseEstimate p;
+  p.header.stamp_ns = stamp_ns;
+  p.header.frame_id = "map";
+  p.pose = pose;
+  p.covariance = Matrix6d::Identity() * 1e-3;
+  p.covariance(0, 0) = p.covariance(1, 1) = 0.25;
+  p.covariance(5, 5) = (M_PI / 12) * (M_PI / 12);
+  return p;
+}
+
+template <typename T>
+const char* locd_topic_of() {
+  if constexpr (std::is_same_v<T, Odometry>) return topics::kOdometry;
+  if constexpr (std::is_same_v<T, Imu>) return topics::kImu;
+  if constexpr (std::is_same_v<T, LaserScan>) return topics::kScan;
+  if constexpr (std::is_same_v<T, PointCloud>) return topics::kCloud;
+  if constexpr (std::is_same_v<T, Image>) return topics::kImage;
+  return topics::kDetections;
+}
+
+int run_bag_replay(const ReplayOptions& options) {
+  std::ostream& log = options.json ? std::cerr : std::cout;
+  const std::string robot = options.robots.empty() ? "robot1" : options.robots.front();
+  std::string config_text;
+  PluginConfig config;
+  Ros2Config mapping;
+  std::optional<ReferenceTrajectory> reference;
+  std::optional<PoseEstimate> start;
+  BagSummary checked;
+  const Limits limits;
+  // Everything is checked before anything is sent.
+  try {
+    if (const std::string error = robot_id_error(robot); !error.empty()) throw ConfigError("--robot: " + error);
+    std::ifstream in(options.config_file);
+    if (!in) throw ConfigError("--config " + options.config_file + ": cannot be read");
+    std::stringstream text;
+    text << in.rdbuf();
+    config_text = text.str();
+    config = split_plugin_config(config_text, options.config_file);
+    mapping = bag_mapping(options, config);
+    if (!options.reference_file.empty()) reference = ReferenceTrajectory::read_tum(options.reference_file);
+    int64_t first_scan_ns = -1;
+    checked = read_ros2_bag(options.file, mapping, limits, [&](const BagMeasurement& m) {
+      if (first_scan_ns < 0 && (std::holds_alternative<LaserScan>(m.measurement) || std::holds_alternative<PointCloud>(m.measurement))) {
+        first_scan_ns = header_of(m.measurement).stamp_ns;
+      }
+    });
+    auto span = [](int64_t a, int64_t b) {
+      std::ostringstream s;
+      s.precision(3);
+      s << std::fixed << static_cast<double>(a) * 1e-9 << " s to " << static_cast<double>(b) * 1e-9 << " s";
+      return s.str();
+    };
+    if (reference && (reference->last_ns() < checked.first_stamp_ns || reference->first_ns() > checked.last_stamp_ns)) {
+      throw ReferenceError("reference " + reference->file() + " (t from " + span(reference->first_ns(), reference->last_ns()) +
+                           ") does not overlap the bag " + options.file + " (header.stamp from " +
+                           span(checked.first_stamp_ns, checked.last_stamp_ns) + "): not the same log, or not the same clock");
+    }
+    if (options.initial_pose == "reference") {
+      if (!reference) throw ConfigError("--initial-pose reference needs --reference");
+      const int64_t at = first_scan_ns >= 0 ? first_scan_ns : checked.first_stamp_ns;
+      const auto pose = reference->at(at);
+      if (!pose) {
+        throw ReferenceError("reference " + reference->file() + " holds no pose at the bag's first scan (" +
+                             std::to_string(static_cast<double>(at) * 1e-9) + " s) for --initial-pose reference");
+      }
+      Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
+      if (!options.initial_offset.empty()) offset = parse_xy_yaw(options.initial_offset, "--initial-offset");
+      start = initial_pose_at(*pose * offset, at);
+    } else if (!options.initial_pose.empty()) {
+      if (!options.initial_offset.empty()) throw ConfigError("--initial-offset applies to --initial-pose reference");
+      start = initial_pose_at(parse_xy_yaw(options.initial_pose, "--initial-pose"), checked.first_stamp_ns);
+    } else if (!options.initial_offset.empty()) {
+      throw ConfigError("--initial-offset applies to --initial-pose reference");
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "locsim replay: " << e.what() << "\n";
+    return 1;
+  }
+
+  std::unique_ptr<Client> client;
+  std::unique_ptr<Target> target;
+  if (options.offline) {
+    target = std::make_unique<OfflineTarget>(options);
+  } else {
+    client = std::make_unique<Client>(ClientOptions{options.domain_id, "", 8, {"*"}});
+    if (!client->wait_for_server(std::chrono::milliseconds(static_cast<int64_t>(options.server_timeout_s * 1000)))) {
+      std::cerr << "locsim replay: no locd server answered on DDS domain " << options.domain_id << " within "
+                << options.server_timeout_s << " s (is locd running with the same CYCLONEDDS_URI and domain?)\n";
+      return 2;
+    }
+    target = std::make_unique<DdsTarget>(options, *client);
+  }
+  const auto wall_start = Clock::now();
+  bool stopped = false;
+  {
+    auto request = std::make_unique<locd_msg_SessionRequest>();  // 256 KiB of config: on the heap
+    std::memset(request.get(), 0, sizeof(locd_msg_SessionRequest));
+    if (config_text.size() >= sizeof(request->config_yaml)) {
+      std::cerr << "locsim replay: --config " << options.config_file << " is " << config_text.size() << " bytes; "
+                << topics::kSessionRequest << " allows at most " << sizeof(request->config_yaml) - 1 << "\n";
+      return 1;
+    }
+    dds::copy_string(request->robot_id, robot);
+    dds::copy_string(request->plugin, config.plugin);
+    dds::copy_string(request->config_yaml, config_text);
+    request->action = locd_msg_SESSION_START;
+    request->request_id = std::random_device()() | 1u;
+    stopped = !target->feed(*mcap::find_topic(topics::kSessionRequest), robot, request.get());
+    if (!stopped && !target->robots[robot].last_error.empty()) {
+      std::cerr << "locsim replay: the session request for robot '" << robot << "' was refused: "
+                << target->robots[robot].last_error << "\n";
+      return 1;
+    }
+  }
+  if (!stopped && start) {
+    dds::to_wire(robot, *start, [&](const locd_msg_InitialPose& w) {
+      stopped = !target->feed(*mcap::find_topic(topics::kInitialPose), robot, &w);
+    });
+  }
+  Pacer pacer(options.rate.value_or(options.offline ? 0.0 : 1.0));
+  // --fast into locd: as fast as the session keeps up, no drop: each scan waits for its pose.
+  auto* keep_up = !options.offline && options.rate && *options.rate == 0.0 ? static_cast<DdsTarget*>(target.get()) : nullptr;
+  const auto pose_wait = std::chrono::milliseconds(static_cast<int64_t>(std::min(options.server_timeout_s, 2.0) * 1000));
+  uint64_t replayed = 0, scans_without_pose = 0;
+  struct StopReplay {};
+  try {
+    if (!stopped) {
+      read_ros2_bag(options.file, mapping, limits, [&](const BagMeasurement& m) {
+        pacer.wait(m.log_time);
+        std::visit(
+            [&](const auto& value) {
+              using T = std::decay_t<decltype(value)>;
+              dds::to_wire(robot, value, [&](const auto& wire) {
+                if (!target->feed(*mcap::find_topic(locd_topic_of<T>()), robot, &wire)) stopped = true;
+              });
+            },
+            m.measurement);
+        ++replayed;
+        if (keep_up && !stopped &&
+            (std::holds_alternative<LaserScan>(m.measurement) || std::holds_alternative<PointCloud>(m.measurement)) &&
+            !keep_up->await_pose(robot, header_of(m.measurement).stamp_ns, pose_wait)) {
+          ++scans_without_pose;
+        }
+        if (stopped) throw StopReplay{};
+      });
+    }
+  } catch (const StopReplay&) {
+  } catch (const std::exception& e) {  // the file changed since it was checked
+    std::cerr << "locsim replay: " << e.what() << "\n";
+    return 1;
+  }
+  target->finish();
+  const double wall_s = std::chrono::duration<double>(Clock::now() - wall_start).count();
+  const double span_s = static_cast<double>(checked.last_log_time - checked.first_log_time) * 1e-9;
+  const PoseTrack track = target->poses();
+  const auto& poses = track.count(robot) ? track.at(robot) : std::map<int64_t, Eigen::Isometry3d>{};
+  const RobotReport& report = target->robots[robot];
+
+  Json topics_json = Json::object();
+  for (const auto& [topic, t] : checked.topics) {
+    topics_json[escaped(topic)] = {{"type", escaped(t.type)}, {"mapped_as", t.key}, {"messages", t.messages}};
+  }
+  Json out = {{"file", options.file}, {"kind", "ros2_bag"}, {"mode", options.offline ? "offline" : "dds"},
+              {"robot", robot}, {"plugin", report.plugin.empty() ? config.plugin : report.plugin},
+              {"messages", checked.messages}, {"measurements", checked.measurements}, {"transforms", checked.transforms},
+              {"replayed", replayed}, {"topics", topics_json}, {"bag_span_s", span_s}, {"wall_s", wall_s},
+              {"speed_x_real_time", wall_s > 0 ? span_s / wall_s : 0.0}, {"fed", report.fed},
+              {"rejected", report.rejected}, {"dropped", report.dropped}, {"last_error", report.last_error},
+              {"scans_without_pose", scans_without_pose},
+              {"poses", poses.size()}};
+  std::optional<AbsolutePoseError> ape;
+  if (reference) {
+    ape = absolute_pose_error(poses, *reference);
+    out["reference"] = options.reference_file;
+    out["ape"] = {{"poses", ape->poses}, {"not_covered", ape->not_covered}, {"rmse_m", ape->rmse_m},
+                  {"mean_m", ape->mean_m}, {"median_m", ape->median_m}, {"max_m", ape->max_m},
+                  {"heading_rmse_deg", ape->heading_rmse_deg}, {"heading_max_deg", ape->heading_max_deg},
+                  {"share_over_0_5_m", ape->share_over_half_metre}};
+    out["rpe"] = {{"pairs", ape->rpe_pairs}, {"rmse_m", ape->rpe_rmse_m}, {"mean_m", ape->rpe_mean_m},
+                  {"median_m", ape->rpe_median_m}, {"max_m", ape->rpe_max_m}};
+  }
+  if (options.json) {
+    std::cout << out.dump() << "\n";
+  } else {
+    log << "replayed " << replayed << " of " << checked.measurements << " sensor messages (" << span_s << " s of bag) in "
+        << wall_s << " s, " << (options.offline ? "offline" : "into locd") << "; robot " << robot << " ("
+        << out["plugin"].get<std::string>() << "): " << poses.size() << " poses, rejected " << report.rejected
+        << ", dropped " << report.dropped << (report.last_error.empty() ? "" : " (last: " + report.last_error + ")") << "\n";
+    if (ape) {
+      log << "APE against " << options.reference_file << " (" << ape->poses << " poses, " << ape->not_covered
+          << " outside the reference): RMSE " << ape->rmse_m << " m, mean " << ape->mean_m << " m, median " << ape->median_m
+          << " m, max " << ape->max_m << " m; heading RMSE " << ape->heading_rmse_deg << " deg; "
+          << 100.0 * ape->share_over_half_metre << " % over 0.5 m; RPE (1 pose apart, " << ape->rpe_pairs
+          << " pairs): RMSE " << ape->rpe_rmse_m << " m, max " << ape->rpe_max_m << " m\n";
+    }
+  }
+  if (stopped) return 2;
+  if (poses.empty()) {
+    std::cerr << "locsim replay: robot '" << robot << "' got no pose from the replay"
+              << (report.last_error.empty() ? "" : " (last error: " + report.last_error + ")") << "\n";
+    return 1;
+  }
+  return 0;
+}
+
 }  // namespace
 
 int run_replay(const ReplayOptions& options) {
+  if (!options.config_file.empty()) return run_bag_replay(options);
   std::ostream& log = options.json ? std::cerr : std::cout;
   mcap::Reader reader(options.file);  // FormatError for a file that is not MCAP
   std::unique_ptr<Client> client;
