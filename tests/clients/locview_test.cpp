@@ -15,6 +15,9 @@
 
 #include <unistd.h>
 
+#include <sys/stat.h>
+
+#include "access.hpp"
 #include "child_process.hpp"
 #include "foxglove.hpp"
 #include "locd/dds/dds.hpp"
@@ -31,6 +34,7 @@ namespace {
 
 constexpr int kDomainView = 124;
 constexpr int kDomainAbuse = 125;
+constexpr int kDomainAccess = 128;
 
 std::string binary(const std::string& name) { return locd::test::binary_dir() + "/bin/" + name; }
 
@@ -154,6 +158,150 @@ TEST(Locview, GarbageAndAThousandConnectionsGetErrorsAndTheViewServesOn) {
   EXPECT_TRUE(fleet.view.running());
   EXPECT_TRUE(fleet.server.process().running());
   EXPECT_NE(fleet.view.output().find("refused a client"), std::string::npos);
+}
+
+// Tokens bound to robots, over the real view: Foxglove's client library without a token, with a
+// wrong one, with one in the URL and in the Authorization header, with one of another robot, and
+// from a foreign web page.
+TEST(Locview, ATokenLetsAClientSeeItsRobotsOnlyAndForeignPagesAreRefused) {
+  const std::string all = "all-robots-token-0123456789", mine = "corridor-bot-token-0123456789",
+                    other = "other-bot-token-0123456789";
+  const fs::path tokens = fs::temp_directory_path() / ("locview_tokens_" + std::to_string(::getpid()));
+  {
+    std::ofstream out(tokens);
+    out << "# locview tokens\n" << all << " *\n" << mine << " corridor_bot\n" << other << " other_bot,third_bot\n";
+  }
+  fs::permissions(tokens, fs::perms::owner_read | fs::perms::owner_write, fs::perm_options::replace);
+  Fleet fleet("locview_access", kDomainAccess, {"--tokens", tokens.string()}, 20);
+  fs::remove(tokens);
+  ASSERT_GT(fleet.port, 0) << fleet.view.output();
+  std::this_thread::sleep_for(3s);  // the session starts, the robot's channels appear
+  int exit_code = 0;
+  const auto lines = locd::test::json_lines(
+      locd::test::run_node("view_access.mjs", {fleet.url(), "corridor_bot", all, mine, other}, exit_code));
+  ASSERT_EQ(exit_code, 0) << fleet.view.output();
+  ASSERT_EQ(lines.size(), 1u);
+  const auto& r = lines[0];
+  const auto topics = [](const nlohmann::json& attempt) {
+    std::vector<std::string> t;
+    for (const auto& c : attempt["channels"]) t.push_back(c["topic"]);
+    return t;
+  };
+  const auto has = [](const std::vector<std::string>& list, const std::string& topic) {
+    return std::find(list.begin(), list.end(), topic) != list.end();
+  };
+  EXPECT_EQ(r["no_token"]["refused_status"], 401) << r.dump();
+  EXPECT_NE(r["no_token"]["refused_body"].get<std::string>().find("no token"), std::string::npos);
+  EXPECT_EQ(r["wrong_token"]["refused_status"], 401);
+  EXPECT_NE(r["wrong_token"]["refused_body"].get<std::string>().find("not valid"), std::string::npos);
+  // Every robot's token, in the URL (as the Foxglove app connects): the robot's channels, poses.
+  EXPECT_TRUE(r["all_in_query"]["opened"]);
+  EXPECT_TRUE(has(topics(r["all_in_query"]), "/corridor_bot/pose"));
+  EXPECT_GT(r["all_in_query"]["poses"].get<int>(), 5) << r["all_in_query"].dump();
+  // The robot's own token, in the header: the same.
+  EXPECT_TRUE(has(topics(r["robot_in_header"]), "/corridor_bot/pose"));
+  EXPECT_GT(r["robot_in_header"]["poses"].get<int>(), 5);
+  // Another robot's token: admitted, shown none of corridor_bot's channels, and its subscription
+  // to the pose channel's id (learned elsewhere) is refused.
+  EXPECT_TRUE(r["other_robot"]["opened"]);
+  EXPECT_TRUE(topics(r["other_robot"]).empty()) << r["other_robot"].dump();
+  EXPECT_EQ(r["other_robot"]["poses"], 0);
+  std::string statuses;
+  for (const auto& m : r["other_robot"]["statuses"]) statuses += m.get<std::string>();
+  EXPECT_NE(statuses.find("is not advertised"), std::string::npos) << statuses;
+  // A page of another site, even with a valid token, is refused; Foxglove's own is let in.
+  EXPECT_EQ(r["foreign_origin"]["refused_status"], 403);
+  EXPECT_NE(r["foreign_origin"]["refused_body"].get<std::string>().find("https://attacker.example"), std::string::npos);
+  EXPECT_TRUE(r["foxglove_origin"]["opened"]);
+  EXPECT_NE(fleet.view.output().find("refused a client"), std::string::npos);
+  EXPECT_EQ(fleet.view.output().find(all), std::string::npos) << "a token reached the log";
+  EXPECT_TRUE(fleet.view.running());
+}
+
+TEST(Locview, ServingOtherHostsWithoutATokenIsRefusedAtStart) {
+  ChildProcess view(binary("locview"), {"--domain", std::to_string(kDomainAccess), "--port", "0", "--address", "0.0.0.0"},
+                    (fs::temp_directory_path() / ("locview_open_" + std::to_string(::getpid()) + ".log")).string());
+  EXPECT_EQ(view.wait(30s), 1);
+  EXPECT_NE(view.output().find("--address 0.0.0.0 serves other hosts, and no token was given"), std::string::npos)
+      << view.output();
+}
+
+// ------------------------------------------------------------------------------ access rules
+
+namespace {
+
+fs::path tokens_file(const std::string& name, const std::string& text, fs::perms mode) {
+  const fs::path file = fs::temp_directory_path() / ("locview_" + name + "_" + std::to_string(::getpid()));
+  std::ofstream(file) << text;
+  fs::permissions(file, mode, fs::perm_options::replace);
+  return file;
+}
+
+std::string tokens_error(const std::string& text, fs::perms mode = fs::perms::owner_read | fs::perms::owner_write) {
+  const fs::path file = tokens_file("bad", text, mode);
+  std::string error;
+  try {
+    locd::view::read_tokens_file(file);
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  fs::remove(file);
+  return error;
+}
+
+}  // namespace
+
+TEST(LocviewAccess, ATokensFileNamesTheLineAndWhatIsAllowed) {
+  const std::string good = "abcdefghijklmnop-0123";
+  EXPECT_NE(tokens_error(good + " *\n", fs::perms::owner_read | fs::perms::group_read).find("mode 0440"), std::string::npos);
+  EXPECT_NE(tokens_error(good + " *\n", fs::perms::owner_read | fs::perms::others_read).find("chmod 600"), std::string::npos);
+  EXPECT_NE(tokens_error("# nothing\n").find("holds no token"), std::string::npos);
+  EXPECT_NE(tokens_error("short *\n").find("line 1: a token has 16 to 256 characters, this one 5"), std::string::npos);
+  EXPECT_NE(tokens_error("\n" + good + "/x *\n").find("line 2: a token holds only A-Z a-z 0-9 - . _ ~"), std::string::npos);
+  EXPECT_NE(tokens_error(good + "\n").find("line 1: a token without robots"), std::string::npos);
+  EXPECT_NE(tokens_error(good + " a, b\n").find("'b' after the robots"), std::string::npos);
+  EXPECT_NE(tokens_error(good + " a\n" + good + " b\n").find("line 2: the token of an earlier line again"), std::string::npos);
+  EXPECT_NE(tokens_error(good + " good,bad/robot\n").find("line 1: robot_id 'bad/robot' contains '/'"), std::string::npos);
+  EXPECT_EQ(tokens_error(good + " *\n"), "");
+
+  const fs::path file = tokens_file("good", "# fleet\n" + good + " a,b\n" + good + "X *\n",
+                                    fs::perms::owner_read | fs::perms::owner_write);
+  const auto grants = locd::view::read_tokens_file(file);
+  fs::remove(file);
+  ASSERT_EQ(grants.size(), 2u);
+  EXPECT_TRUE(grants[0].sees("a"));
+  EXPECT_TRUE(grants[0].sees("b"));
+  EXPECT_FALSE(grants[0].sees("c"));
+  EXPECT_TRUE(grants[1].sees("c"));
+}
+
+TEST(LocviewAccess, AdmissionByHeaderOrQueryAndOrigin) {
+  using locd::view::admit;
+  locd::view::AccessPolicy open;
+  EXPECT_TRUE(admit(open, "", "/", "").admitted);
+  EXPECT_TRUE(admit(open, "", "/", "https://app.foxglove.dev").admitted);
+  const auto foreign = admit(open, "", "/", "http://192.168.1.9:8080");
+  EXPECT_FALSE(foreign.admitted);
+  EXPECT_EQ(foreign.http_status, 403);
+  open.allowed_origins = {"*"};
+  EXPECT_TRUE(admit(open, "", "/", "http://192.168.1.9:8080").admitted);
+
+  locd::view::AccessPolicy policy;
+  policy.grants.push_back({"first-token-0123456789", false, {"a"}});
+  policy.grants.push_back({"second-token-0123456789", true, {}});
+  EXPECT_EQ(admit(policy, "", "/", "").http_status, 401);
+  EXPECT_EQ(admit(policy, "Bearer first-token-012345678", "/", "").http_status, 401) << "a prefix is not the token";
+  EXPECT_EQ(admit(policy, "Bearer first-token-01234567890", "/", "").http_status, 401) << "nor a longer one";
+  EXPECT_EQ(admit(policy, "Basic first-token-0123456789", "/", "").http_status, 401);
+  EXPECT_EQ(admit(policy, "", "/?token=" + std::string(10000, 'a'), "").http_status, 401);
+  const auto by_header = admit(policy, "Bearer first-token-0123456789", "/", "");
+  ASSERT_TRUE(by_header.admitted);
+  EXPECT_EQ(by_header.grant, &policy.grants[0]);
+  const auto by_query = admit(policy, "", "/?x=1&token=second-token-0123456789&y=2", "");
+  ASSERT_TRUE(by_query.admitted);
+  EXPECT_EQ(by_query.grant, &policy.grants[1]);
+  EXPECT_EQ(admit(policy, "Bearer second-token-0123456789", "/", "https://attacker.example").http_status, 403)
+      << "the origin is checked with a valid token too";
 }
 
 // ------------------------------------------------------------------------------ conversions

@@ -29,7 +29,7 @@ inline std::string read_text(const std::filesystem::path& file) {
 //   50-69 server (bad input, CLI)           80-84 ceiling_pf        85-89 emoi_markov
 //   90-94 icp_explorer                      95-99 feature_ekf landmarks
 //   100-119 fault isolation                 120-123 security, session ownership
-//   124-129 Foxglove view, MCAP record/replay
+//   124-129 Foxglove view, MCAP record/replay; 128 view access (tokens, origins)
 //   130-139 grid_mcl                        140-149 ROS 2 and Fast DDS interoperability
 //   150-179 fleet                           180-189 honest accuracy
 //   190-199 addressing (partitions, robot ids)

@@ -142,7 +142,7 @@ struct FleetView::Impl {
     Robot& r = robots[id];
     for (int slot = 0; slot < kSlots; ++slot) {
       const SlotInfo& s = kSlotInfo[slot];
-      r.channel[slot] = server.add_channel("/" + id + "/" + s.name, s.schema, json_schema(s.schema), s.latched);
+      r.channel[slot] = server.add_channel(id, "/" + id + "/" + s.name, s.schema, json_schema(s.schema), s.latched);
     }
     return &r;
   }
@@ -156,7 +156,7 @@ struct FleetView::Impl {
     if (it != r.grids.end()) return it->second;
     if (r.grids.size() >= 16 || layer.empty()) return 0;  // bounded: a plugin publishes a few layers
     const std::string safe = escaped(layer);
-    return r.grids[layer] = server.add_channel("/" + id + "/grid/" + safe, "foxglove.Grid", json_schema("foxglove.Grid"), true);
+    return r.grids[layer] = server.add_channel(id, "/" + id + "/grid/" + safe, "foxglove.Grid", json_schema("foxglove.Grid"), true);
   }
 
   template <typename Make>

@@ -34,7 +34,7 @@ std::string quoted(const std::string& s) {
 
 struct FoxgloveServer::Impl {
   struct Channel {
-    std::string topic, schema_name, schema;
+    std::string robot, topic, schema_name, schema;
     bool latched = false;
     bool has_last = false;
     uint64_t last_time = 0;
@@ -42,13 +42,15 @@ struct FoxgloveServer::Impl {
   };
   struct Client {
     std::map<uint32_t, uint32_t> channel_of;  // subscription -> channel
-    uint32_t advertised = 0;                   // channels 1..advertised were advertised to it
+    uint32_t advertised = 0;                   // channels 1..advertised were considered for it
+    const Grant* grant = nullptr;              // what its token lets it see (nullptr: no token asked)
     bool open = false;
     bool warned_drop = false;
   };
 
   std::string name;
   ServerLimits limits;
+  AccessPolicy access;
   WsServer ws;
   std::thread thread;
 
@@ -66,7 +68,7 @@ struct FoxgloveServer::Impl {
   std::chrono::steady_clock::time_point log_window[kLogKinds];
   int logged_in_window[kLogKinds] = {};
 
-  Impl(const std::string& n, const ServerLimits& l) : name(n), limits(l) {
+  Impl(const std::string& n, const ServerLimits& l, AccessPolicy a) : name(n), limits(l), access(std::move(a)) {
     subscriber_count.reset(new std::atomic<int>[limits.max_channels + 1]);
     for (size_t i = 0; i <= limits.max_channels; ++i) subscriber_count[i] = 0;
   }
@@ -98,12 +100,18 @@ struct FoxgloveServer::Impl {
             {"schema", c.schema}, {"schemaEncoding", "jsonschema"}};
   }
 
-  // Advertises the channels a client has not seen yet.
+  static bool visible(const Client& client, const Channel& channel) {
+    return !client.grant || client.grant->sees(channel.robot);
+  }
+
+  // Advertises the channels a client has not seen yet, of the robots it may see.
   void advertise_new(Handle h, Client& client) {
     Json list = Json::array();
     {
       std::lock_guard<std::mutex> lock(mutex);
-      for (uint32_t id = client.advertised + 1; id <= channels.size(); ++id) list.push_back(channel_json(id, channels[id - 1]));
+      for (uint32_t id = client.advertised + 1; id <= channels.size(); ++id) {
+        if (visible(client, channels[id - 1])) list.push_back(channel_json(id, channels[id - 1]));
+      }
       client.advertised = static_cast<uint32_t>(channels.size());
     }
     if (!list.empty()) send_text(h, {{"op", "advertise"}, {"channels", list}});
@@ -118,6 +126,15 @@ struct FoxgloveServer::Impl {
       con->set_body(std::string("locview speaks the WebSocket subprotocol ") + kSubprotocol + " only\n");
       return false;
     }
+    const Admission admission = admit(access, con->get_request_header("Authorization"), con->get_resource(),
+                                      con->get_request_header("Origin"));
+    if (!admission.admitted) {
+      ++refused;
+      con->set_status(static_cast<websocketpp::http::status_code::value>(admission.http_status));
+      con->set_body("locview: " + admission.reason + "\n");
+      log(kRefusal, "refused a client from " + escaped(con->get_remote_endpoint()) + ": " + admission.reason);
+      return false;
+    }
     if (clients.size() >= limits.max_clients) {
       ++refused;
       con->set_status(websocketpp::http::status_code::service_unavailable);
@@ -128,7 +145,7 @@ struct FoxgloveServer::Impl {
     }
     con->select_subprotocol(kSubprotocol);
     con->set_max_message_size(limits.max_client_message_bytes);
-    clients[h];  // counts against max_clients from now on
+    clients[h].grant = admission.grant;  // counts against max_clients from now on
     return true;
   }
 
@@ -203,7 +220,12 @@ struct FoxgloveServer::Impl {
         continue;
       }
       const uint32_t id = s["id"], channel = s["channelId"];
-      if (channel == 0 || channel > client.advertised) {
+      bool shown = false;
+      if (channel != 0 && channel <= client.advertised) {
+        std::lock_guard<std::mutex> lock(mutex);
+        shown = visible(client, channels[channel - 1]);
+      }
+      if (!shown) {
         status(h, kError, "channel " + std::to_string(channel) + " is not advertised (subscription " + std::to_string(id) + ")");
         continue;
       }
@@ -287,8 +309,8 @@ struct FoxgloveServer::Impl {
 };
 
 FoxgloveServer::FoxgloveServer(const std::string& name, const std::string& address, uint16_t port,
-                               const ServerLimits& limits)
-    : impl_(std::make_unique<Impl>(name, limits)) {
+                               const ServerLimits& limits, AccessPolicy access)
+    : impl_(std::make_unique<Impl>(name, limits, std::move(access))) {
   Impl& s = *impl_;
   s.ws.clear_access_channels(websocketpp::log::alevel::all);
   s.ws.clear_error_channels(websocketpp::log::elevel::all);
@@ -335,14 +357,14 @@ uint16_t FoxgloveServer::port() const {
   return impl_->ws.get_local_endpoint(ec).port();
 }
 
-uint32_t FoxgloveServer::add_channel(const std::string& topic, const std::string& schema_name,
+uint32_t FoxgloveServer::add_channel(const std::string& robot, const std::string& topic, const std::string& schema_name,
                                      const std::string& json_schema, bool latched) {
   Impl& s = *impl_;
   uint32_t id = 0;
   {
     std::lock_guard<std::mutex> lock(s.mutex);
     if (s.channels.size() >= s.limits.max_channels) return 0;
-    s.channels.push_back({topic, schema_name, json_schema, latched, false, 0, nullptr});
+    s.channels.push_back({robot, topic, schema_name, json_schema, latched, false, 0, nullptr});
     id = static_cast<uint32_t>(s.channels.size());
   }
   s.ws.get_io_service().post([&s] {

@@ -13,6 +13,8 @@
 #include <memory>
 #include <string>
 
+#include "access.hpp"
+
 namespace locd::view {
 
 struct ServerLimits {
@@ -25,7 +27,7 @@ struct ServerLimits {
 
 struct ServerCounters {
   uint64_t clients = 0;            // connected now
-  uint64_t refused_clients = 0;    // over max_clients, or without the subprotocol
+  uint64_t refused_clients = 0;    // over max_clients, without the subprotocol, token or an allowed origin
   uint64_t client_errors = 0;      // status errors sent for garbage
   uint64_t messages_sent = 0;
   uint64_t messages_dropped = 0;   // a client's queue was full
@@ -33,20 +35,22 @@ struct ServerCounters {
 
 class FoxgloveServer {
  public:
-  // Listens on address:port (port 0: any free port, see port()). Throws std::runtime_error when it
-  // cannot listen.
-  FoxgloveServer(const std::string& name, const std::string& address, uint16_t port, const ServerLimits& limits);
+  // Listens on address:port (port 0: any free port, see port()); admits a connection only as
+  // `access` allows (origin, token) and shows it only the channels of its grant's robots. Throws
+  // std::runtime_error when it cannot listen.
+  FoxgloveServer(const std::string& name, const std::string& address, uint16_t port, const ServerLimits& limits,
+                 AccessPolicy access = {});
   ~FoxgloveServer();
   FoxgloveServer(const FoxgloveServer&) = delete;
   FoxgloveServer& operator=(const FoxgloveServer&) = delete;
 
   uint16_t port() const;
 
-  // Adds and advertises a channel (JSON encoding, jsonschema). latched: the last message is kept
-  // and sent to each new subscriber (maps, grids, status). Returns its id, or 0 when
-  // max_channels is reached. Thread-safe.
-  uint32_t add_channel(const std::string& topic, const std::string& schema_name, const std::string& json_schema,
-                       bool latched);
+  // Adds a channel of `robot` (JSON encoding, jsonschema) and advertises it to the clients whose
+  // grant sees that robot. latched: the last message is kept and sent to each new subscriber (maps,
+  // grids, status). Returns its id, or 0 when max_channels is reached. Thread-safe.
+  uint32_t add_channel(const std::string& robot, const std::string& topic, const std::string& schema_name,
+                       const std::string& json_schema, bool latched);
   // True when some client subscribes to the channel (cheap: callers skip converting otherwise).
   bool subscribed(uint32_t channel) const;
   // Sends payload (JSON text) to every subscriber of the channel, stamped log_time_ns. Thread-safe;
