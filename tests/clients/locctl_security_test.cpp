@@ -74,6 +74,15 @@ TEST(LocctlSecurity, GovernanceEncryptsAndAccessControlsEverything) {
   }
 }
 
+TEST(LocctlSecurity, RtpsProtectionIsNoneUnlessAsked) {
+  EXPECT_NE(governance_xml().find("<rtps_protection_kind>NONE<"), std::string::npos);
+  EXPECT_NE(governance_xml(RtpsProtection::kSign).find("<rtps_protection_kind>SIGN<"), std::string::npos);
+  const std::string encrypted = governance_xml(parse_rtps_protection("encrypt"));
+  EXPECT_NE(encrypted.find("<rtps_protection_kind>ENCRYPT<"), std::string::npos);
+  EXPECT_NE(encrypted.find("<data_protection_kind>ENCRYPT<"), std::string::npos) << "the topics stay encrypted";
+  EXPECT_THROW(parse_rtps_protection("ENCRYPT"), std::invalid_argument);
+}
+
 TEST(LocctlSecurity, EveryIdentitysConfigIsTheShippedTemplateWithItsFolder) {
   std::ifstream in(std::string(LOCD_SOURCE_DIR) + "/config/dds/secure.xml");
   std::stringstream text;
@@ -113,6 +122,21 @@ TEST(LocctlSecurity, NamesRolesTimesAndTheCommandLineAreChecked) {
   EXPECT_THROW(parse_command_line({"security", "wizard", "fleet"}, nullptr), UsageError);
   EXPECT_THROW(parse_command_line({"security", "robot", "fleet"}, nullptr), UsageError);
   EXPECT_THROW(parse_command_line({"status", "--days", "3"}, nullptr), UsageError);
+  EXPECT_EQ(parse_command_line({"security", "init", "fleet", "--rtps-protection", "encrypt"}, nullptr).rtps_protection,
+            "encrypt");
+  const auto usage_error = [](std::vector<std::string> args) {
+    try {
+      parse_command_line(args, nullptr);
+    } catch (const UsageError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(usage_error({"security", "init", "fleet", "--rtps-protection", "strong"}),
+            "--rtps-protection = 'strong'; allowed: none, sign, encrypt");
+  EXPECT_EQ(usage_error({"security", "robot", "fleet", "r1", "--rtps-protection", "sign"}),
+            "--rtps-protection applies to 'security init' only");
+  EXPECT_EQ(usage_error({"status", "--rtps-protection", "sign"}), "--rtps-protection applies to 'security init' only");
 }
 
 }  // namespace

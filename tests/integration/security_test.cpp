@@ -31,6 +31,7 @@ constexpr int kDomainAttacks = 120;
 constexpr int kDomainBadCredentials = 121;
 constexpr int kDomainOwnership = 122;
 constexpr int kDomainSquatters = 123;
+constexpr int kDomainEncryptedRtps = 210;
 
 #define EXPECT_CONTAINS(text, part) EXPECT_NE((text).find(part), std::string::npos) << "'" << (part) << "' not in:\n" << (text)
 
@@ -277,6 +278,34 @@ TEST(Security, IntrudersAreRefusedAndTheRobotIsUnaffectedWhileLegitimateRolesWor
   EXPECT_CONTAINS(log, "[dds] Begin handshake reply failed: Certificate not valid: error: unable to get local issuer "
                        "certificate; subject: /O=locd/OU=robot/CN=corridor_bot");
   EXPECT_EQ(log.find("stopped by request 777"), std::string::npos) << log;
+}
+
+// A fleet whose governance also protects whole RTPS messages (`--rtps-protection encrypt`, what
+// SROS2 asks): the robot localizes as in a fleet without it, and a participant without a
+// certificate matches nothing.
+TEST(Security, AFleetWithEncryptedRtpsMessagesLocalizes) {
+  Scratch scratch("locd_security_rtps");
+  const fs::path fleet = scratch.path() / "fleet";
+  locctl_security(scratch.path(), {"init", fleet.string(), "--rtps-protection", "encrypt"});
+  EXPECT_CONTAINS(read(fleet / "governance.xml"), "<rtps_protection_kind>ENCRYPT</rtps_protection_kind>");
+  const fs::path server_id = locctl_security(scratch.path(), {"server", fleet.string(), "srv"});
+  const fs::path robot = locctl_security(scratch.path(), {"robot", fleet.string(), "corridor_bot"});
+  locd::test::TestServerOptions options;
+  options.environment = as(server_id);
+  TestServer server("security_rtps", kDomainEncryptedRtps, options);
+  const std::string domain = std::to_string(kDomainEncryptedRtps);
+  ChildProcess locsim(program("locsim"),
+                      {"live", locd::test::source_dir() + "/config/scenarios/corridor.yaml", "--domain", domain,
+                       "--duration", "10", "--json", "--server-timeout", "30"},
+                      (scratch.path() / "locsim.log").string(), as(robot));
+  const Outcome stranger = intrude(scratch.path(), {}, kDomainEncryptedRtps, "corridor_bot", "corridor_bot", "initial-pose");
+  EXPECT_EQ(stranger.code, 0) << stranger.output;
+  EXPECT_CONTAINS(stranger.output, "matched 0");
+  const int code = locsim.wait(120s);
+  const std::string output = locsim.output();
+  ASSERT_EQ(code, 0) << output << "\nserver:\n" << server.process().output();
+  EXPECT_LT(largest_error(output), 0.5) << output;
+  EXPECT_NE(output.find("\"converged\":true"), std::string::npos) << output;
 }
 
 // Waits until locd's log holds `text`.

@@ -27,6 +27,8 @@ Commands:
                                sensors included, into MCAP until Ctrl-C or --duration S
                                [--compression zstd|lz4|none (default zstd)]
   security init FLEET          make the fleet's CA and signed governance in folder FLEET
+                               [--rtps-protection none|sign|encrypt (default none): whole RTPS
+                               messages too, beyond every topic's encrypted data]
   security robot FLEET ROBOT   make an identity in FLEET/<role>/<name>: key, certificate, signed
   security operator FLEET NAME   permissions and cyclonedds.xml (DDS Security config). A robot
   security monitor FLEET NAME    feeds and steers only itself, an operator steers any robot, a
@@ -102,7 +104,7 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
   app.set_help_flag();
   app.allow_extras();
   std::vector<std::string> words;
-  std::string domain, timeout, count, std_xy, std_yaw, duration, compression, days, start;
+  std::string domain, timeout, count, std_xy, std_yaw, duration, compression, days, start, rtps_protection;
   app.add_option("words", words);
   app.add_flag("--help,-h", cl.help);
   app.add_flag("--json", cl.json);
@@ -115,10 +117,12 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
   app.add_option("--compression", compression);
   app.add_option("--days", days);
   app.add_option("--start", start);
+  app.add_option("--rtps-protection", rtps_protection);
   for (size_t i = 0; i < args.size(); ++i) {
     const bool takes_value = args[i] == "--domain" || args[i] == "--timeout" || args[i] == "--count" ||
                              args[i] == "--std-xy" || args[i] == "--std-yaw" || args[i] == "--duration" ||
-                             args[i] == "--compression" || args[i] == "--days" || args[i] == "--start";
+                             args[i] == "--compression" || args[i] == "--days" || args[i] == "--start" ||
+                             args[i] == "--rtps-protection";
     if (takes_value && i + 1 == args.size()) throw UsageError("option " + args[i] + " needs a value");
   }
   std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them last first
@@ -159,6 +163,12 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
   }
   if (!days.empty()) cl.days = parse_integer("--days", days, 1, 36500);
   if (!start.empty()) cl.start = start;
+  if (!rtps_protection.empty()) {
+    if (rtps_protection != "none" && rtps_protection != "sign" && rtps_protection != "encrypt") {
+      throw UsageError("--rtps-protection = '" + rtps_protection + "'; allowed: none, sign, encrypt");
+    }
+    cl.rtps_protection = rtps_protection;
+  }
   if (words.empty()) {
     if (cl.help) {
       cl.command = "help";
@@ -184,6 +194,7 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
     throw UsageError("--duration and --compression apply to 'record' only");
   }
   if ((cl.days || cl.start) && cl.command != "security") throw UsageError("--days and --start apply to 'security' only");
+  if (cl.rtps_protection && cl.command != "security") throw UsageError("--rtps-protection applies to 'security init' only");
   if (cl.command == "security") {
     const std::string& verb = cl.arguments[0];
     const size_t expected = verb == "init" ? 2 : verb == "revoke" ? 4 : 3;
@@ -192,6 +203,7 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
       throw UsageError("'security " + verb + "' is not a security command; allowed: init, robot, operator, monitor, "
                        "server, revoke (see locctl --help)");
     }
+    if (cl.rtps_protection && verb != "init") throw UsageError("--rtps-protection applies to 'security init' only");
     if (cl.arguments.size() != expected) {
       throw UsageError("'security " + verb + "' takes " + std::to_string(expected - 1) + " argument(s), got " +
                        std::to_string(cl.arguments.size() - 1) + "; see locctl --help");

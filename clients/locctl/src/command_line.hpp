@@ -28,6 +28,7 @@ struct CommandLine {
   std::string compression = "zstd";    // --compression (record): zstd, lz4, none
   std::optional<long> days;            // --days (security): validity of what is made
   std::optional<std::string> start;    // --start (security): when it becomes valid, UTC
+  std::optional<std::string> rtps_protection;  // --rtps-protection (security init): none, sign, encrypt
 };
 
 // Parses argv (options may come before or after the command). `domain_env` is the value of

@@ -395,7 +395,8 @@ int command_security(const CommandLine& cl) {
   Json result = {{"command", "security " + verb}, {"ok", true}, {"fleet", fs::absolute(fleet).string()}};
   std::string text;
   if (verb == "init") {
-    security::init(fleet, validity, run);
+    security::init(fleet, validity, run,
+                   cl.rtps_protection ? security::parse_rtps_protection(*cl.rtps_protection) : security::RtpsProtection::kNone);
     text = "fleet CA in " + (fs::absolute(fleet) / "ca").string() + ", signed governance " +
            (fs::absolute(fleet) / "governance.p7s").string() + "; keep ca/ca.key secret";
   } else if (verb == "revoke") {

@@ -185,13 +185,22 @@ std::string subject_permissions(Role role, const std::string& name) {
   return "CN=" + name + ",OU=" + role_name(role) + ",O=" + kOrganization;
 }
 
-std::string governance_xml() {
+RtpsProtection parse_rtps_protection(const std::string& text) {
+  if (text == "none") return RtpsProtection::kNone;
+  if (text == "sign") return RtpsProtection::kSign;
+  if (text == "encrypt") return RtpsProtection::kEncrypt;
+  throw std::invalid_argument("--rtps-protection = '" + text.substr(0, 80) + "'; allowed: none, sign, encrypt");
+}
+
+std::string governance_xml(RtpsProtection rtps) {
+  const char* rtps_kind = rtps == RtpsProtection::kEncrypt ? "ENCRYPT" : rtps == RtpsProtection::kSign ? "SIGN" : "NONE";
   // One rule for every topic: no topic of the domain travels unprotected or without access
   // control, whatever a permissions document grants.
   return R"(<?xml version="1.0" encoding="UTF-8"?>
 <!-- locd fleet governance, made by `locctl security init`: every participant authenticates with a
      certificate of the fleet CA and presents permissions the CA signed; discovery, liveliness and
-     every topic are encrypted; every topic is access controlled (read and write). -->
+     every topic are encrypted; every topic is access controlled (read and write); whole RTPS
+     messages: )" + std::string(rtps_kind) + R"( (locctl security init --rtps-protection). -->
 <dds xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance"
      xsi:noNamespaceSchemaLocation="http://www.omg.org/spec/DDS-SECURITY/20170901/omg_shared_ca_governance.xsd">
   <domain_access_rules>
@@ -202,7 +211,7 @@ std::string governance_xml() {
       <enable_join_access_control>true</enable_join_access_control>
       <discovery_protection_kind>ENCRYPT</discovery_protection_kind>
       <liveliness_protection_kind>ENCRYPT</liveliness_protection_kind>
-      <rtps_protection_kind>NONE</rtps_protection_kind>
+      <rtps_protection_kind>)" + std::string(rtps_kind) + R"(</rtps_protection_kind>
       <topic_access_rules>
         <topic_rule>
           <topic_expression>*</topic_expression>
@@ -338,7 +347,7 @@ Runner system_runner() {
   };
 }
 
-void init(const fs::path& fleet, const Validity& validity, const Runner& run) {
+void init(const fs::path& fleet, const Validity& validity, const Runner& run, RtpsProtection rtps) {
   const fs::path ca = fs::absolute(ca_dir(fleet));
   if (fs::exists(ca)) throw std::runtime_error("'" + ca.string() + "' exists already; a fleet has one CA");
   fs::create_directories(ca / "certs");
@@ -359,7 +368,7 @@ void init(const fs::path& fleet, const Validity& validity, const Runner& run) {
                 openssl_date(end_of(ca_validity)), "-notext", "-out", "ca.pem"}, ca);
   openssl(run, {"ca", "-batch", "-config", "ca.cnf", "-gencrl", "-out", "crl.pem"}, ca);
   fs::remove(request);
-  write_file(fleet / "governance.xml", governance_xml());
+  write_file(fleet / "governance.xml", governance_xml(rtps));
   openssl(run, {"smime", "-sign", "-text", "-in", (fleet / "governance.xml").string(), "-signer",
                 (ca / "ca.pem").string(), "-inkey", key.string(), "-out", (fleet / "governance.p7s").string()});
 }

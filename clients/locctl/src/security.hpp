@@ -37,7 +37,13 @@ long long parse_utc(const std::string& text);
 // The documents, pure functions of their inputs.
 std::string subject_openssl(Role role, const std::string& name);      // "/O=locd/OU=robot/CN=r1"
 std::string subject_permissions(Role role, const std::string& name);  // "CN=r1,OU=robot,O=locd"
-std::string governance_xml();
+// What the governance asks of whole RTPS messages (rtps_protection_kind), beyond the per-topic
+// data, metadata, discovery and liveliness encryption it always asks for: none (each topic's
+// payload is still encrypted; message headers and the submessage structure are not), sign or
+// encrypt (SROS2's choice: the whole message, at a cost README measures).
+enum class RtpsProtection { kNone, kSign, kEncrypt };
+RtpsProtection parse_rtps_protection(const std::string& text);  // none | sign | encrypt; throws invalid_argument
+std::string governance_xml(RtpsProtection rtps = RtpsProtection::kNone);
 std::string permissions_xml(Role role, const std::string& name, const Validity& validity);
 // The <Security> config of one identity whose files are in `folder` (an absolute path, or
 // "${LOCD_IDENTITY}" for config/dds/secure.xml).
@@ -51,7 +57,8 @@ Runner system_runner();
 
 // The steps. Each throws std::runtime_error naming the file or the openssl command that failed,
 // and never overwrites an existing CA or identity.
-void init(const std::filesystem::path& fleet, const Validity& validity, const Runner& run);
+void init(const std::filesystem::path& fleet, const Validity& validity, const Runner& run,
+          RtpsProtection rtps = RtpsProtection::kNone);
 std::filesystem::path make_identity(const std::filesystem::path& fleet, Role role, const std::string& name,
                                     const Validity& validity, const Runner& run);
 // Revokes the identity's certificate, reissues FLEET/ca/crl.pem and copies it into every identity
