@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The cost of DDS Security, plain against secure in one run, rounds interleaved (plain, secure,
-# plain, secure, ...): ROBOTS robots at once, each a locd_latency_probe publishing MESSAGES
+# The cost of DDS Security, plain against secure against secure with whole RTPS messages encrypted
+# (`locctl security init --rtps-protection encrypt`) in one run, rounds interleaved (plain, secure,
+# rtps, plain, ...): ROBOTS robots at once, each a locd_latency_probe publishing MESSAGES
 # odometry messages 5 ms apart to one locd serving the fixture_odometry test plugin (about 1 us
 # of compute), each robot with its own identity in secure rounds (made here by locctl security).
 # Per robot: end-to-end latency p50/p99 (odometry published -> pose received), time to join
@@ -20,17 +21,24 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 loopback="file://$PWD/config/dds/loopback.xml"
 build/bin/locctl security init "$work/fleet" > /dev/null
-build/bin/locctl security server "$work/fleet" srv > /dev/null
-for i in $(seq 1 "$robots"); do build/bin/locctl security robot "$work/fleet" "robot$i" > /dev/null; done
+build/bin/locctl security init "$work/fleet_rtps" --rtps-protection encrypt > /dev/null
+for f in fleet fleet_rtps; do
+  build/bin/locctl security server "$work/$f" srv > /dev/null
+  for i in $(seq 1 "$robots"); do build/bin/locctl security robot "$work/$f" "robot$i" > /dev/null; done
+done
 printf "domain_id: %s\nplugin_directories: [%s]\nlog_level: warning\n" "$domain" "$PWD/build/broken_plugins" \
   > "$work/locd.yaml"
 ticks_per_second=$(getconf CLK_TCK)
 uri() {  # uri MODE IDENTITY
-  if [ "$1" = plain ]; then echo "$loopback"; else echo "$loopback,file://$work/fleet/$2/cyclonedds.xml"; fi
+  case "$1" in
+    plain) echo "$loopback" ;;
+    secure) echo "$loopback,file://$work/fleet/$2/cyclonedds.xml" ;;
+    rtps) echo "$loopback,file://$work/fleet_rtps/$2/cyclonedds.xml" ;;
+  esac
 }
 echo "robots $robots, $messages messages each at 200 Hz, load average $(cut -d' ' -f1-3 /proc/loadavg)"
 for round in $(seq 1 "$rounds"); do
-  for mode in plain secure; do
+  for mode in plain secure rtps; do
     CYCLONEDDS_URI=$(uri $mode server/srv) build/bin/locd --config "$work/locd.yaml" > "$work/locd.log" 2>&1 &
     locd=$!
     sleep 1
