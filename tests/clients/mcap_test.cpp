@@ -92,6 +92,13 @@ std::vector<std::pair<uint16_t, std::vector<uint8_t>>> read_all(const fs::path& 
 
 }  // namespace
 
+TEST(Mcap, Crc32IsTheStandardOneAndChains) {
+  const std::string check = "123456789";
+  EXPECT_EQ(locd::mcap::crc32(check.data(), check.size()), 0xCBF43926u);  // CRC-32/ISO-HDLC check value
+  EXPECT_EQ(locd::mcap::crc32(check.data() + 4, 5, locd::mcap::crc32(check.data(), 4)), 0xCBF43926u);
+  EXPECT_EQ(locd::mcap::crc32(nullptr, 0), 0u);
+}
+
 TEST(Mcap, RecordingsAreReadableByTheirOwnerOnly) {
   const fs::path path = fs::temp_directory_path() / ("mcap_mode_" + std::to_string(::getpid()) + ".mcap");
   { std::ofstream(path) << "old"; }

@@ -1,6 +1,7 @@
 #include "foxglove.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <websocketpp/base64/base64.hpp>
 
 #include <cmath>
 #include <cstring>
@@ -141,26 +142,7 @@ const std::string& json_schema(const std::string& schema_name) {
 std::string base_frame(const std::string& robot_id) { return robot_id + "/base_link"; }
 
 std::string base64(const void* data, size_t size) {
-  static const char* alphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  const auto* p = static_cast<const uint8_t*>(data);
-  std::string out;
-  out.reserve((size + 2) / 3 * 4);
-  size_t i = 0;
-  for (; i + 2 < size; i += 3) {
-    const uint32_t v = uint32_t(p[i]) << 16 | uint32_t(p[i + 1]) << 8 | p[i + 2];
-    out += alphabet[v >> 18];
-    out += alphabet[(v >> 12) & 63];
-    out += alphabet[(v >> 6) & 63];
-    out += alphabet[v & 63];
-  }
-  if (i < size) {
-    const uint32_t v = uint32_t(p[i]) << 16 | (i + 1 < size ? uint32_t(p[i + 1]) << 8 : 0);
-    out += alphabet[v >> 18];
-    out += alphabet[(v >> 12) & 63];
-    out += i + 1 < size ? alphabet[(v >> 6) & 63] : '=';
-    out += '=';
-  }
-  return out;
+  return websocketpp::base64_encode(static_cast<const unsigned char*>(data), size);
 }
 
 Json pose_in_frame(const locd_msg_MessageHeader& header, const locd_msg_Pose3D& pose, const char* frame) {

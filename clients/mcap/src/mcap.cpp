@@ -4,8 +4,10 @@
 #include <lz4frame.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <zlib.h>
 #include <zstd.h>
 
+#include <algorithm>
 #include <array>
 #include <cstring>
 #include <memory>
@@ -42,19 +44,6 @@ std::string record(Opcode op, const std::string& content) {
   Out out;
   out.u8(op).u64(content.size()).raw(content);
   return std::move(out.bytes);
-}
-
-const std::array<uint32_t, 256>& crc_table() {
-  static const std::array<uint32_t, 256> table = [] {
-    std::array<uint32_t, 256> t{};
-    for (uint32_t i = 0; i < 256; ++i) {
-      uint32_t c = i;
-      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-      t[i] = c;
-    }
-    return t;
-  }();
-  return table;
 }
 
 std::string compress(Compression c, const std::string& in, int zstd_level) {
@@ -116,11 +105,16 @@ std::string decompress(const std::string& compression, const uint8_t* in, size_t
 }  // namespace
 
 uint32_t crc32(const void* data, size_t size, uint32_t crc) {
-  const auto& table = crc_table();
-  const auto* p = static_cast<const uint8_t*>(data);
-  crc = ~crc;
-  for (size_t i = 0; i < size; ++i) crc = table[(crc ^ p[i]) & 0xff] ^ (crc >> 8);
-  return ~crc;
+  // zlib's CRC-32 (the one MCAP specifies), fed in pieces zlib's length type holds.
+  const auto* p = static_cast<const Bytef*>(data);
+  uLong c = crc;
+  while (size > 0) {
+    const uInt piece = static_cast<uInt>(std::min<size_t>(size, 1u << 30));
+    c = ::crc32(c, p, piece);
+    p += piece;
+    size -= piece;
+  }
+  return static_cast<uint32_t>(c);
 }
 
 const char* compression_name(Compression c) {
