@@ -69,6 +69,12 @@ void read_filter(const Params& p, const Limits& limits, FilterConfig& f) {
   }
   f.relocalize_after_lost_updates =
       static_cast<int>(p.integer("relocalize_after_lost_updates", f.relocalize_after_lost_updates, 0, 1000000));
+  f.hypothesis_test_after_uncertain_updates = static_cast<int>(
+      p.integer("hypothesis_test_after_uncertain_updates", f.hypothesis_test_after_uncertain_updates, 0, 1000000));
+  f.hypothesis_candidates =
+      static_cast<size_t>(p.integer("hypothesis_candidates", static_cast<long>(f.hypothesis_candidates), 1, 1000000));
+  f.hypothesis_confirm_updates =
+      static_cast<int>(p.integer("hypothesis_confirm_updates", f.hypothesis_confirm_updates, 1, 1000));
   f.update_min_d = p.number("update_min_d", f.update_min_d, Range::closed(0.0, 100.0));
   f.update_min_a = p.number("update_min_a", f.update_min_a, Range::closed(0.0, 2.0 * M_PI));
   f.cluster_radius = p.number("cluster_radius", f.cluster_radius, Range{0.0, 100.0, true, false});
@@ -133,7 +139,8 @@ Config parse_config(const Params& params, const Limits& limits, std::vector<std:
                       "max_beams", "laser_min_range", "laser_max_range", "z_hit", "z_short", "z_max", "z_rand",
                       "sigma_hit", "lambda_short", "laser_likelihood_max_dist", "search_sigma_hit", "min_particles", "max_particles",
                       "global_particles", "pf_err", "pf_z", "kld_bin", "resample_interval", "selective_resampling", "recovery_alpha_slow",
-                      "recovery_alpha_fast", "relocalize_after_lost_updates", "update_min_d", "update_min_a", "cluster_radius", "threads", "seed",
+                      "recovery_alpha_fast", "relocalize_after_lost_updates",
+                      "hypothesis_test_after_uncertain_updates", "hypothesis_candidates", "hypothesis_confirm_updates", "update_min_d", "update_min_a", "cluster_radius", "threads", "seed",
                       "set_initial_pose", "initial_pose", "initial_cov_xx", "initial_cov_yy", "initial_cov_aa",
                       "global_localization_stddev", "localization_state", "diagnostics_particles", "publish_map",
                       "do_beamskip", "beam_skip_distance", "beam_skip_threshold", "beam_skip_error_threshold"});

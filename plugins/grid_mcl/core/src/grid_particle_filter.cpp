@@ -145,6 +145,8 @@ void GridParticleFilter::set_pose(const Pose2& mean, const Eigen::Matrix3d& cova
   odometry_at_update_.reset();
   updates_since_resampling_ = 0;
   lost_updates_ = 0;
+  uncertain_updates_ = 0;
+  hypotheses_.clear();
   ParticleCluster start;
   start.pose = mean;
   start.covariance = covariance;
@@ -155,6 +157,8 @@ void GridParticleFilter::set_pose(const Pose2& mean, const Eigen::Matrix3d& cova
 
 void GridParticleFilter::set_global() {
   lost_updates_ = 0;
+  uncertain_updates_ = 0;
+  hypotheses_.clear();
   particles_.clear();
   particles_.reserve(config_.filter.global_particles);
   sample_free_poses(config_.filter.global_particles, particles_);
@@ -178,6 +182,7 @@ CorrectionReport GridParticleFilter::correct(const LaserScan& scan, const Pose2&
     if (!moved) return report;
     motion_.sample(particles_, last, odometry, rng_);
     if (estimate_) estimate_->pose = estimate_->pose * (last.inverse() * odometry);
+    for (Hypothesis& h : hypotheses_) h.pose = h.pose * (last.inverse() * odometry);
   }
   odometry_at_update_ = odometry;
   report.updated = true;
@@ -211,6 +216,17 @@ CorrectionReport GridParticleFilter::correct(const LaserScan& scan, const Pose2&
     const std::string reason = assessment_.reason;
     set_global();
     assessment_.reason = reason + " for " + std::to_string(patience) + " updates: global relocalization";
+    report.relocalized = true;
+    return report;
+  }
+  if (const std::optional<Pose2> moved = follow_hypotheses(prepared, scan, report)) {
+    const double away = std::hypot(moved->x - estimate_->pose.x, moved->y - estimate_->pose.y);
+    const std::string reason = assessment_.reason + "; a pose " + metres(away) + " m away passed the fit and " +
+                               "see-through tests for " + std::to_string(config_.filter.hypothesis_confirm_updates) +
+                               " updates: relocalization there";
+    const Eigen::Vector3d stddev = config_.initial_stddev;
+    set_pose(*moved, stddev.cwiseProduct(stddev).asDiagonal());
+    assessment_ = {LocalizationState::kLost, reason};
     report.relocalized = true;
     return report;
   }
@@ -334,6 +350,119 @@ void GridParticleFilter::assess(const PreparedScan& scan, const LaserScan& raw, 
     assessment_ = {LocalizationState::kTracking, fit_text + ", " + mass_text + ", position stddev " +
                                                      metres(position_stddev) + " m"};
   }
+}
+
+std::optional<Pose2> GridParticleFilter::follow_hypotheses(const PreparedScan& scan, const LaserScan& raw,
+                                                          CorrectionReport& report) {
+  const FilterConfig& f = config_.filter;
+  const StateCriteria& c = config_.state;
+  if (f.hypothesis_test_after_uncertain_updates <= 0) return std::nullopt;
+  uncertain_updates_ = assessment_.state == LocalizationState::kTracking ? std::max(0, uncertain_updates_ - 1)
+                                                                          : uncertain_updates_ + 1;
+  const bool committed = estimate_->mass >= c.tracking_min_cluster_mass;
+  const bool fails = report.fit < c.tracking_min_fit || report.see_through > c.tracking_max_see_through;
+  if (!committed || !fails || report.beams == 0) {
+    hypotheses_.clear();
+    return std::nullopt;
+  }
+  LaserModelConfig beams = config_.laser;
+  beams.max_beams = c.see_through_beams;
+  const PreparedScan dense = prepare_scan(raw, beams);
+  double fit = 0.0;
+  // Two hypotheses are one when they agree in position (cluster_radius) and heading.
+  const auto distinct = [&](const Pose2& pose) {
+    for (const Hypothesis& h : hypotheses_) {
+      if (std::hypot(pose.x - h.pose.x, pose.y - h.pose.y) < f.cluster_radius &&
+          std::abs(normalize_angle(pose.theta - h.pose.theta)) < 0.5) {
+        return false;
+      }
+    }
+    return true;
+  };
+  // Those followed so far, checked on this scan; the older kept where two have become one.
+  std::vector<Hypothesis> followed;
+  followed.swap(hypotheses_);
+  for (const Hypothesis& h : followed) {
+    const std::optional<Pose2> still = checked(h.pose, scan, dense, report.fit, &fit);
+    if (still && distinct(*still)) hypotheses_.push_back({*still, h.confirmations + 1});
+  }
+  if (uncertain_updates_ >= f.hypothesis_test_after_uncertain_updates) {
+    uncertain_updates_ = 0;
+    report.hypothesis_tested = true;
+    // Candidates ranked by their fit; the best few refined, checked and followed.
+    std::vector<PoseParticle> candidates;
+    candidates.reserve(f.hypothesis_candidates);
+    sample_free_poses(f.hypothesis_candidates, candidates);
+    for (PoseParticle& p : candidates) p.weight = laser_.fit(p.pose, scan, c.fit_distance);
+    const size_t refined = std::min<size_t>(kMaxHypotheses, candidates.size());
+    std::partial_sort(candidates.begin(), candidates.begin() + static_cast<std::ptrdiff_t>(refined), candidates.end(),
+                      [](const PoseParticle& a, const PoseParticle& b) { return a.weight > b.weight; });
+    for (size_t k = 0; k < refined && hypotheses_.size() < kMaxHypotheses; ++k) {
+      const std::optional<Pose2> pose = checked(candidates[k].pose, scan, dense, report.fit, &fit);
+      if (pose && distinct(*pose)) hypotheses_.push_back({*pose, 0});
+    }
+  }
+  // One place only, confirmed: move there. Look-alike places (a symmetric building) wait until
+  // the scans tell them apart.
+  if (hypotheses_.size() == 1 && hypotheses_.front().confirmations >= f.hypothesis_confirm_updates) {
+    const Pose2 pose = hypotheses_.front().pose;
+    hypotheses_.clear();
+    return pose;
+  }
+  return std::nullopt;
+}
+
+std::optional<Pose2> GridParticleFilter::checked(const Pose2& candidate, const PreparedScan& scan,
+                                                 const PreparedScan& dense, double estimate_fit, double* fit) const {
+  const StateCriteria& c = config_.state;
+  const Pose2 pose = refine(candidate, scan);
+  *fit = laser_.fit(pose, scan, c.fit_distance);
+  if (*fit < c.tracking_min_fit || *fit < estimate_fit) return std::nullopt;
+  if (std::hypot(pose.x - estimate_->pose.x, pose.y - estimate_->pose.y) < config_.filter.cluster_radius) return std::nullopt;
+  if (c.tracking_max_see_through < 1.0 &&
+      laser_.see_through(pose, dense, c.see_through_margin, c.see_through_fraction) > c.tracking_max_see_through) {
+    return std::nullopt;
+  }
+  return pose;
+}
+
+Pose2 GridParticleFilter::refine(const Pose2& pose, const PreparedScan& scan) const {
+  // Score: sum over the hits of exp(-d^2 / 2 s^2), d the distance from the beam's end to the
+  // nearest obstacle, with s shrinking with the step so a candidate a few decimetres off is pulled in.
+  const GridGeometry& g = map_->map.geometry();
+  const auto score = [&](const Pose2& p, double s) {
+    double sum = 0.0;
+    for (size_t k = 0; k < scan.end.size(); ++k) {
+      if (!scan.hit[k]) continue;
+      int row = 0, col = 0;
+      if (!g.index_of(p.transform(scan.end[k]), row, col)) continue;
+      const double d = map_->field.distance(row, col);
+      sum += std::exp(-d * d / (2.0 * s * s));
+    }
+    return sum;
+  };
+  Pose2 best = pose;
+  for (double step = 0.4; step > 0.04; step *= 0.5) {
+    const double s = std::max(config_.laser.sigma_hit, step), turn = 0.5 * step;
+    double best_score = score(best, s);
+    for (int iteration = 0; iteration < 20; ++iteration) {
+      const Pose2 around[] = {Pose2(best.x + step, best.y, best.theta), Pose2(best.x - step, best.y, best.theta),
+                              Pose2(best.x, best.y + step, best.theta), Pose2(best.x, best.y - step, best.theta),
+                              Pose2(best.x, best.y, normalize_angle(best.theta + turn)),
+                              Pose2(best.x, best.y, normalize_angle(best.theta - turn))};
+      const Pose2* next = nullptr;
+      for (const Pose2& p : around) {
+        const double v = score(p, s);
+        if (v > best_score) {
+          best_score = v;
+          next = &p;
+        }
+      }
+      if (!next) break;
+      best = *next;
+    }
+  }
+  return best;
 }
 
 std::optional<ParticleCluster> GridParticleFilter::estimate() const { return estimate_; }

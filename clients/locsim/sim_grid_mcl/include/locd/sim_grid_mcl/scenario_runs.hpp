@@ -52,7 +52,8 @@ struct RunTrace {
   double update_ms_sum = 0.0;        // scans only
   size_t scans = 0;
   size_t max_particles = 0;
-  size_t relocalizations = 0;        // scans on which the filter restarted global localization
+  size_t relocalizations = 0;        // scans on which the filter restarted global localization or
+                                     // moved to a confirmed hypothesis
   LocalizationState last_state = LocalizationState::kUnknown;
 };
 
@@ -124,7 +125,7 @@ inline RunTrace run_scenario(const RunSpec& spec) {
     if (r.localization) {
       state = r.localization->state;
       reason = r.localization->reason;
-      if (reason.find("global relocalization") != std::string::npos) ++trace.relocalizations;
+      if (reason.find("relocalization") != std::string::npos) ++trace.relocalizations;
     }
     if (!r.estimate) continue;
     const Pose2 e = Pose2::from_isometry(r.estimate->pose);

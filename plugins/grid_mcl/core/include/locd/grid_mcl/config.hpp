@@ -62,6 +62,18 @@ struct FilterConfig {
   // a scan fit below localization_state.tracking_min_fit this many updates in a row restarts
   // global localization; 0: never, as AMCL.
   int relocalize_after_lost_updates = 10;
+  // Kidnapped along look-alike corridors: the scan still fits the old pose, only returns through
+  // the map's walls give it away, and those never restart global localization (real maps lack
+  // open doors and glass). After this many uncertain updates (a leaky count: a tracking update
+  // takes one off) with the estimate failing the fit or see-through test, the filter scores
+  // hypothesis_candidates poses drawn over the free cells and refines the best 8; those at least
+  // cluster_radius away that pass both tests and fit no worse than the estimate are followed
+  // (carried by the odometry, checked on every scan, dropped when they fail). When one alone is
+  // left after hypothesis_confirm_updates updates the filter moves there (state lost until it
+  // tracks again); look-alike places wait until the scans tell them apart. 0: never.
+  int hypothesis_test_after_uncertain_updates = 10;
+  size_t hypothesis_candidates = 4000;
+  int hypothesis_confirm_updates = 10;
   double update_min_d = 0.25;         // m of travel before the next filter update
   double update_min_a = 0.2;          // rad of rotation before the next filter update
   double cluster_radius = 1.0;        // m, the estimate: weighted mean within this of the mode
@@ -83,8 +95,8 @@ struct StateCriteria {
   // corridors fits nearly every beam. What gives it away are the returns that, cast from the
   // estimate over see_through_beams beams of the scan, meet a wall of the map more than
   // see_through_margin + see_through_fraction of their range before they end: above
-  // tracking_max_see_through of the returns, uncertain (and, in a streak that began while
-  // tracking, it counts towards relocalize_after_lost_updates); 1: off.
+  // tracking_max_see_through of the returns, uncertain (never a relocalization by itself: see
+  // FilterConfig::hypothesis_test_after_uncertain_updates); 1: off.
   double see_through_margin = 0.5;        // m
   double see_through_fraction = 0.1;      // of the return's range (a heading error grows with it)
   int see_through_beams = 180;            // beams checked, evenly spread over the scan

@@ -16,6 +16,12 @@
 //   relocalization            one pose held (main cluster mass) but a scan fit below
 //                             tracking_min_fit for relocalize_after_lost_updates updates
 //                             (kidnapped, or a search settled wrong): global localization again
+//   hypothesis test           uncertain for hypothesis_test_after_uncertain_updates (a leaky
+//                             count) with the estimate failing the fit or see-through test:
+//                             candidates over the free cells, the best refined; those far away
+//                             that pass both are followed; the only one left after
+//                             hypothesis_confirm_updates updates takes the filter there
+//                             (kidnapped along look-alike corridors)
 //
 // Between filter updates the pose follows the odometry: estimate_at(odom) composes the last
 // estimate with the odometry increment since that update.
@@ -48,7 +54,9 @@ struct CorrectionReport {
   double fit = 0.0;                    // the state's scan fit at the estimate
   double see_through = 0.0;            // share of the scan's returns passing through the map's walls
   double sigma_hit = 0.0;              // the field's width this update (search_sigma_hit)
-  bool relocalized = false;            // lost too long: global localization restarted
+  bool relocalized = false;            // lost too long: global localization restarted, or the
+                                       // filter moved to a confirmed hypothesis
+  bool hypothesis_tested = false;      // candidates were drawn and scored this update
 };
 
 class GridParticleFilter {
@@ -81,6 +89,15 @@ class GridParticleFilter {
  private:
   void weigh(const PreparedScan& scan, CorrectionReport& report);
   void assess(const PreparedScan& scan, const LaserScan& raw, CorrectionReport& report);
+  // The hypothesis test (FilterConfig::hypothesis_test_after_uncertain_updates): the pose to move
+  // to once a hypothesis is confirmed.
+  std::optional<Pose2> follow_hypotheses(const PreparedScan& scan, const LaserScan& raw, CorrectionReport& report);
+  // A candidate that passes both tracking tests, is at least cluster_radius from the estimate and
+  // fits no worse than it, refined; none: no such candidate.
+  std::optional<Pose2> checked(const Pose2& candidate, const PreparedScan& scan, const PreparedScan& dense,
+                               double estimate_fit, double* fit) const;
+  // Coarse-to-fine hill climbing on the beams' closeness to the map's obstacles.
+  Pose2 refine(const Pose2& pose, const PreparedScan& scan) const;
 
   Config config_;
   std::shared_ptr<const SharedMap> map_;
@@ -97,6 +114,13 @@ class GridParticleFilter {
   std::optional<ParticleCluster> estimate_;
   int updates_since_resampling_ = 0;
   int lost_updates_ = 0;    // consecutive updates with a scan fit below tracking_min_fit
+  int uncertain_updates_ = 0;  // leaky count of updates not tracking (the hypothesis test)
+  struct Hypothesis {
+    Pose2 pose;                // carried by the odometry like the estimate
+    int confirmations = 0;     // updates it passed since it was found
+  };
+  std::vector<Hypothesis> hypotheses_;  // at most kMaxHypotheses, pairwise distinct
+  static constexpr size_t kMaxHypotheses = 8;
   LocalizationAssessment assessment_{LocalizationState::kLost, "no pose yet"};
 };
 
