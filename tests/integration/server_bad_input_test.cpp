@@ -4,6 +4,8 @@
 // is counted, and loses nothing else.
 #include <gtest/gtest.h>
 
+#include <atomic>
+
 #include <cmath>
 #include <condition_variable>
 #include <cstring>
@@ -200,6 +202,9 @@ class LocdOverDds {
     }
     return *slot;
   }
+
+  // The robot's side in `partition_robot` leaves: its writers are deleted.
+  void forget(const std::string& partition_robot) { robots_.erase(partition_robot); }
 
   locd::test::ChildProcess& locd() { return *locd_; }
 
@@ -409,6 +414,36 @@ TEST(ServerBadInput, ARobotCanNeitherStopNorFeedAnotherRobot) {
   EXPECT_EQ(b.state, "running");
   EXPECT_EQ(b.received, 1u) << describe(b);
   EXPECT_EQ(locd.pose_stamps("robot_b"), (std::vector<int64_t>{2000}));
+}
+
+// Session pinning: robot B writing samples that name robot A in B's own partition is refused,
+// and its writer must not keep A's session alive either once A has left (A's DDS instance keeps a
+// live writer, B's, which the server does not count).
+TEST(ServerBadInput, ARobotNamingAnotherInItsOwnPartitionDoesNotKeepThatRobotsSession) {
+  LocdOverDds locd(205, "session_grace_s: 0.5\n");
+  ASSERT_TRUE(locd.request("robot_a", 1, "", kFixtureConfig).request_ok);
+  locd.send_odometry("robot_a", 1000, 0.0);
+  ASSERT_TRUE(locd.wait_poses("robot_a", 1));
+  // Robot B, a process of its own, writes odometry naming A in B's partition.
+  locd::dds::Participant robot_b(205);
+  locd::dds::Writer<locd_msg_Odometry> b(robot_b, locd::topics::kOdometry, QosProfile::kSensor, 8,
+                                         {locd::topics::robot_partition("robot_b")});
+  std::atomic<bool> done{false};
+  std::thread squatter([&] {
+    locd::Odometry odometry;
+    odometry.header = {2000, "odom"};
+    while (!done) {
+      odometry.header.stamp_ns += 100'000'000;
+      locd::dds::write(b, "robot_a", odometry);
+      std::this_thread::sleep_for(100ms);
+    }
+  });
+  std::this_thread::sleep_for(1s);  // B's samples reach the server while A is still there
+  locd.forget("robot_a");           // A leaves
+  const auto ended = locd.wait_status("robot_a", [](const Status& s) { return s.state == "stopped"; });
+  done = true;
+  squatter.join();
+  EXPECT_CONTAINS(ended.message, "session ended: no live writer of robot 'robot_a'");
 }
 
 // A robot id outside [A-Za-z0-9_.-]{1,64} is refused before anything is kept for it, and the log

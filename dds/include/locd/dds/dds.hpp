@@ -4,7 +4,9 @@
 
 #include <dds/dds.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -198,7 +200,10 @@ struct HasRobotId<T, std::void_t<decltype(std::declval<T>().robot_id)>> : std::t
 // deleted or lost (its participant's lease expired), kDisposed when a writer disposed it (other
 // vendors' default on deleting a writer; locd's writers only unregister, see make_qos). Only the
 // key fields of `key` are set. With robot scope, a disposal by a writer outside the robot's
-// partition is not reported: robot A cannot end robot B's instance.
+// partition is not reported: robot A cannot end robot B's instance. Nor can B keep A's instance:
+// a writer outside A's partition that names A (refused) still registers with A's instance, so with
+// robot scope the reader also follows the writers whose samples it accepted for each robot, and
+// reports kNoWriters once none of them is matched any more, whoever else writes A's id.
 enum class InstanceGone { kNoWriters, kDisposed };
 
 template <typename T>
@@ -220,6 +225,7 @@ class Reader {
     if (state_->callback) {
       listener = dds_create_listener(state_.get());
       dds_lset_data_available(listener, &Reader::on_data_available);
+      if (state_->follows_own_writers()) dds_lset_subscription_matched(listener, &Reader::on_subscription_matched);
     }
     state_->subscriber = subscriber_for(p, partitions);
     const dds_entity_t parent = state_->subscriber.handle() ? state_->subscriber.handle() : p.handle();
@@ -272,6 +278,46 @@ class Reader {
     // Robot scope: the partitions of each writer seen, by publication handle (bounded).
     std::mutex writers_mutex;
     std::unordered_map<dds_instance_handle_t, Partitions> writers;
+    // Robot scope with on_writers_gone: the writers whose samples were accepted, per robot id
+    // (bounded: beyond, a robot is reported by its instance only).
+    static constexpr size_t kMaxRobotsFollowed = 16384, kMaxWritersPerRobot = 64;
+    std::unordered_map<std::string, std::vector<dds_instance_handle_t>> own_writers;
+
+    bool follows_own_writers() const {
+      if constexpr (HasRobotId<T>::value) return on_foreign && on_writers_gone;
+      return false;
+    }
+    void note_own_writer(const std::string& robot_id, dds_instance_handle_t writer) {
+      std::lock_guard<std::mutex> lock(writers_mutex);
+      auto it = own_writers.find(robot_id);
+      if (it == own_writers.end()) {
+        if (own_writers.size() >= kMaxRobotsFollowed) return;
+        it = own_writers.emplace(robot_id, std::vector<dds_instance_handle_t>{}).first;
+      }
+      std::vector<dds_instance_handle_t>& list = it->second;
+      if (std::find(list.begin(), list.end(), writer) == list.end() && list.size() < kMaxWritersPerRobot) {
+        list.push_back(writer);
+      }
+    }
+    // Drops the writers no longer matched; returns the robots left without any.
+    std::vector<std::string> forget_unmatched(std::vector<dds_instance_handle_t> matched) {
+      std::sort(matched.begin(), matched.end());
+      std::vector<std::string> gone;
+      std::lock_guard<std::mutex> lock(writers_mutex);
+      for (auto it = own_writers.begin(); it != own_writers.end();) {
+        std::vector<dds_instance_handle_t>& list = it->second;
+        list.erase(std::remove_if(list.begin(), list.end(),
+                                  [&](dds_instance_handle_t w) { return !std::binary_search(matched.begin(), matched.end(), w); }),
+                   list.end());
+        if (list.empty()) {
+          gone.push_back(it->first);
+          it = own_writers.erase(it);
+        } else {
+          ++it;
+        }
+      }
+      return gone;
+    }
 
     template <typename Sample>
     bool from_own_partition(dds_entity_t reader, const Sample& sample, const dds_sample_info_t& info,
@@ -316,6 +362,7 @@ class Reader {
             Partitions partitions;
             own = state->from_own_partition(reader, s, info, partitions);
             if (!own) state->on_foreign(s, partitions);
+            if (own && state->on_writers_gone) state->note_own_writer(std::string(s.robot_id), info.publication_handle);
           }
         }
         if (own) state->callback(s);
@@ -323,6 +370,28 @@ class Reader {
       // An instance state change travels alone (valid_data false) or on the last sample taken.
       if (state->on_writers_gone && info.instance_state != DDS_IST_ALIVE) report_gone(reader, *state, s, info);
     });
+  }
+
+  // A writer matched or went: the robots none of whose accepted writers is still matched are gone.
+  static void on_subscription_matched(dds_entity_t reader, const dds_subscription_matched_status_t status, void* arg) {
+    auto* state = static_cast<State*>(arg);
+    std::vector<dds_instance_handle_t> matched(static_cast<size_t>(status.current_count) + 16);
+    dds_return_t n = dds_get_matched_publications(reader, matched.data(), matched.size());
+    if (n >= 0 && static_cast<size_t>(n) > matched.size()) {
+      matched.resize(static_cast<size_t>(n) + 16);
+      n = dds_get_matched_publications(reader, matched.data(), matched.size());
+    }
+    if (n < 0 || static_cast<size_t>(n) > matched.size()) return;  // leave it to the instances
+    matched.resize(static_cast<size_t>(n));
+    if constexpr (HasRobotId<T>::value) {
+      for (const std::string& robot_id : state->forget_unmatched(std::move(matched))) {
+        auto key = std::make_unique<T>();
+        std::memset(key.get(), 0, sizeof(T));
+        if (robot_id.size() >= sizeof(key->robot_id)) continue;
+        robot_id.copy(key->robot_id, robot_id.size());
+        state->on_writers_gone(*key, InstanceGone::kNoWriters);
+      }
+    }
   }
 
   static void report_gone(dds_entity_t reader, State& state, const T& key, const dds_sample_info_t& info) {
