@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstring>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -385,8 +384,7 @@ class Reader {
     matched.resize(static_cast<size_t>(n));
     if constexpr (HasRobotId<T>::value) {
       for (const std::string& robot_id : state->forget_unmatched(std::move(matched))) {
-        auto key = std::make_unique<T>();
-        std::memset(key.get(), 0, sizeof(T));
+        auto key = std::make_unique<T>();  // value-initialized: zeroes
         if (robot_id.size() >= sizeof(key->robot_id)) continue;
         robot_id.copy(key->robot_id, robot_id.size());
         state->on_writers_gone(*key, InstanceGone::kNoWriters);

@@ -198,7 +198,14 @@ CorrectionReport GridParticleFilter::correct(const LaserScan& scan, const Pose2&
   } else {
     estimate_ = main_cluster(particles_, radius, estimate_ ? std::optional<Pose2>(estimate_->pose) : std::nullopt);
   }
-  assess(prepared, scan, report);
+  // The beams the see-through check casts (see_through_beams), prepared once per update.
+  PreparedScan dense;
+  if (config_.state.tracking_max_see_through < 1.0) {
+    LaserModelConfig beams = config_.laser;
+    beams.max_beams = config_.state.see_through_beams;
+    dense = prepare_scan(scan, beams);
+  }
+  assess(prepared, dense, report);
   // Kidnapped, or a search settled on the wrong place: the filter holds one pose (its main
   // cluster has tracking_min_cluster_mass) but the scan has not fitted it (fit below
   // tracking_min_fit) for relocalize_after_lost_updates updates in a row: global localization.
@@ -219,7 +226,7 @@ CorrectionReport GridParticleFilter::correct(const LaserScan& scan, const Pose2&
     report.relocalized = true;
     return report;
   }
-  if (const std::optional<Pose2> moved = follow_hypotheses(prepared, scan, report)) {
+  if (const std::optional<Pose2> moved = follow_hypotheses(prepared, dense, report)) {
     const double away = std::hypot(moved->x - estimate_->pose.x, moved->y - estimate_->pose.y);
     const std::string reason = assessment_.reason + "; a pose " + metres(away) + " m away passed the fit and " +
                                "see-through tests for " + std::to_string(config_.filter.hypothesis_confirm_updates) +
@@ -304,15 +311,12 @@ void GridParticleFilter::weigh(const PreparedScan& scan, CorrectionReport& repor
   if (report.beams > 0) recovery_.update(average);
 }
 
-void GridParticleFilter::assess(const PreparedScan& scan, const LaserScan& raw, CorrectionReport& report) {
+void GridParticleFilter::assess(const PreparedScan& scan, const PreparedScan& dense, CorrectionReport& report) {
   const StateCriteria& c = config_.state;
   const ParticleCluster& e = *estimate_;
   report.fit = laser_.fit(e.pose, scan, c.fit_distance);
   if (c.tracking_max_see_through < 1.0) {
-    LaserModelConfig beams = config_.laser;
-    beams.max_beams = c.see_through_beams;
-    report.see_through = laser_.see_through(e.pose, prepare_scan(raw, beams), c.see_through_margin,
-                                           c.see_through_fraction);
+    report.see_through = laser_.see_through(e.pose, dense, c.see_through_margin, c.see_through_fraction);
   }
   const double position_stddev =
       std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(e.covariance.topLeftCorner<2, 2>()).eigenvalues()(1)));
@@ -352,8 +356,8 @@ void GridParticleFilter::assess(const PreparedScan& scan, const LaserScan& raw, 
   }
 }
 
-std::optional<Pose2> GridParticleFilter::follow_hypotheses(const PreparedScan& scan, const LaserScan& raw,
-                                                          CorrectionReport& report) {
+std::optional<Pose2> GridParticleFilter::follow_hypotheses(const PreparedScan& scan, const PreparedScan& dense,
+                                                          const CorrectionReport& report) {
   const FilterConfig& f = config_.filter;
   const StateCriteria& c = config_.state;
   if (f.hypothesis_test_after_uncertain_updates <= 0) return std::nullopt;
@@ -365,10 +369,6 @@ std::optional<Pose2> GridParticleFilter::follow_hypotheses(const PreparedScan& s
     hypotheses_.clear();
     return std::nullopt;
   }
-  LaserModelConfig beams = config_.laser;
-  beams.max_beams = c.see_through_beams;
-  const PreparedScan dense = prepare_scan(raw, beams);
-  double fit = 0.0;
   // Two hypotheses are one when they agree in position (cluster_radius) and heading.
   const auto distinct = [&](const Pose2& pose) {
     for (const Hypothesis& h : hypotheses_) {
@@ -383,12 +383,11 @@ std::optional<Pose2> GridParticleFilter::follow_hypotheses(const PreparedScan& s
   std::vector<Hypothesis> followed;
   followed.swap(hypotheses_);
   for (const Hypothesis& h : followed) {
-    const std::optional<Pose2> still = checked(h.pose, scan, dense, report.fit, &fit);
+    const std::optional<Pose2> still = checked(h.pose, scan, dense, report.fit);
     if (still && distinct(*still)) hypotheses_.push_back({*still, h.confirmations + 1});
   }
   if (uncertain_updates_ >= f.hypothesis_test_after_uncertain_updates) {
     uncertain_updates_ = 0;
-    report.hypothesis_tested = true;
     // Candidates ranked by their fit; the best few refined, checked and followed.
     std::vector<PoseParticle> candidates;
     candidates.reserve(f.hypothesis_candidates);
@@ -398,7 +397,7 @@ std::optional<Pose2> GridParticleFilter::follow_hypotheses(const PreparedScan& s
     std::partial_sort(candidates.begin(), candidates.begin() + static_cast<std::ptrdiff_t>(refined), candidates.end(),
                       [](const PoseParticle& a, const PoseParticle& b) { return a.weight > b.weight; });
     for (size_t k = 0; k < refined && hypotheses_.size() < kMaxHypotheses; ++k) {
-      const std::optional<Pose2> pose = checked(candidates[k].pose, scan, dense, report.fit, &fit);
+      const std::optional<Pose2> pose = checked(candidates[k].pose, scan, dense, report.fit);
       if (pose && distinct(*pose)) hypotheses_.push_back({*pose, 0});
     }
   }
@@ -413,11 +412,11 @@ std::optional<Pose2> GridParticleFilter::follow_hypotheses(const PreparedScan& s
 }
 
 std::optional<Pose2> GridParticleFilter::checked(const Pose2& candidate, const PreparedScan& scan,
-                                                 const PreparedScan& dense, double estimate_fit, double* fit) const {
+                                                 const PreparedScan& dense, double estimate_fit) const {
   const StateCriteria& c = config_.state;
   const Pose2 pose = refine(candidate, scan);
-  *fit = laser_.fit(pose, scan, c.fit_distance);
-  if (*fit < c.tracking_min_fit || *fit < estimate_fit) return std::nullopt;
+  const double fit = laser_.fit(pose, scan, c.fit_distance);
+  if (fit < c.tracking_min_fit || fit < estimate_fit) return std::nullopt;
   if (std::hypot(pose.x - estimate_->pose.x, pose.y - estimate_->pose.y) < config_.filter.cluster_radius) return std::nullopt;
   if (c.tracking_max_see_through < 1.0 &&
       laser_.see_through(pose, dense, c.see_through_margin, c.see_through_fraction) > c.tracking_max_see_through) {

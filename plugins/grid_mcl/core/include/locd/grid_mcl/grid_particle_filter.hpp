@@ -56,7 +56,6 @@ struct CorrectionReport {
   double sigma_hit = 0.0;              // the field's width this update (search_sigma_hit)
   bool relocalized = false;            // lost too long: global localization restarted, or the
                                        // filter moved to a confirmed hypothesis
-  bool hypothesis_tested = false;      // candidates were drawn and scored this update
 };
 
 class GridParticleFilter {
@@ -88,14 +87,15 @@ class GridParticleFilter {
 
  private:
   void weigh(const PreparedScan& scan, CorrectionReport& report);
-  void assess(const PreparedScan& scan, const LaserScan& raw, CorrectionReport& report);
+  // `dense`: the scan's see_through_beams beams (empty when the see-through check is off).
+  void assess(const PreparedScan& scan, const PreparedScan& dense, CorrectionReport& report);
   // The hypothesis test (FilterConfig::hypothesis_test_after_uncertain_updates): the pose to move
   // to once a hypothesis is confirmed.
-  std::optional<Pose2> follow_hypotheses(const PreparedScan& scan, const LaserScan& raw, CorrectionReport& report);
+  std::optional<Pose2> follow_hypotheses(const PreparedScan& scan, const PreparedScan& dense, const CorrectionReport& report);
   // A candidate that passes both tracking tests, is at least cluster_radius from the estimate and
   // fits no worse than it, refined; none: no such candidate.
   std::optional<Pose2> checked(const Pose2& candidate, const PreparedScan& scan, const PreparedScan& dense,
-                               double estimate_fit, double* fit) const;
+                               double estimate_fit) const;
   // Coarse-to-fine hill climbing on the beams' closeness to the map's obstacles.
   Pose2 refine(const Pose2& pose, const PreparedScan& scan) const;
 
