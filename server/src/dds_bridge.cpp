@@ -362,6 +362,7 @@ void DdsBridge::publish_status(const SessionStatusReport& s) {
   wire->localization = wire_localization(s.localization.state);
   copy_truncated(wire->localization_reason, s.localization.reason);
   wire->held = s.counters.held;
+  wire->throttled = s.counters.throttled;
   copy_truncated(wire->waiting_for, s.waiting_for);
   wire->lost = s.counters.lost;
   std::array<locd_msg_StreamCount, 6> lost{};

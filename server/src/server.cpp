@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <sstream>
 
 #include "locd/dds/topics.hpp"
 #include "locd/sdk/robot_id.hpp"
@@ -76,6 +77,7 @@ Server::Server(ServerConfig config, const PluginIndex& catalog, OutputSink& sink
       pool_(static_cast<size_t>(config_.workers)), workers_(worker_settings(config_), config_.limits, logger_),
       environment_{workers_, pool_, sink_, static_cast<size_t>(config_.queue_depth), config_.failures,
                    configure_template(config_), nullptr},
+      limiter_(config_.request_limits),
       state_file_(config_.state_directory), started_ns_(wall_clock_ns()), started_(std::chrono::steady_clock::now()),
       fleet_(ServerMember{config_.server_id, config_.weight, config_.server_group}),
       info_(make_info(config_, catalog_, started_ns_)) {
@@ -252,6 +254,7 @@ void Server::on_session_request(SessionRequestMessage request) {
     return;
   }
   const std::string robot_id = request.robot_id;
+  if (!admit(robot_id, RequestKind::kSessionRequest, "session request " + std::to_string(request.request_id))) return;
   if (request.stop) {
     std::shared_ptr<Session> session;
     bool answer = false;
@@ -602,6 +605,7 @@ void Server::on_output_problem(const std::string& robot_id, const std::string& p
 }
 
 void Server::on_initial_pose(const std::string& robot_id, const PoseEstimate& pose) {
+  if (!admit(robot_id, RequestKind::kInitialPose, "initial pose")) return;
   if (auto session = find(robot_id)) {
     session->set_pose(pose);
     return;
@@ -610,6 +614,7 @@ void Server::on_initial_pose(const std::string& robot_id, const PoseEstimate& po
 }
 
 void Server::on_map_save_request(const std::string& robot_id, uint64_t request_id) {
+  if (!admit(robot_id, RequestKind::kMapSave, "map save request " + std::to_string(request_id))) return;
   if (auto session = find(robot_id)) {
     session->save_map(request_id);
     return;
@@ -635,6 +640,51 @@ void Server::on_invalid_robot_id(const std::string& topic, const std::string& er
     }
   }
   logger_.log(LogLevel::kWarning, "server", line);
+}
+
+bool Server::admit(const std::string& robot_id, RequestKind kind, const std::string& what) {
+  if (limiter_.admit(robot_id, kind)) return true;
+  const RequestRate& rate = config_.request_limits.of(kind);
+  auto number = [](double v) {
+    std::ostringstream out;
+    out << v;
+    return out.str();
+  };
+  const std::string message = what + " of robot '" + robot_id + "' dropped: over the robot's limit of " +
+                              number(rate.per_s) + " a second (burst " + number(rate.burst) + "), " +
+                              request_limit_key(kind) + " in the server config";
+  std::string line;
+  std::shared_ptr<Session> session;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++throttled_;
+    if (auto it = sessions_.find(robot_id); it != sessions_.end()) session = it->second;
+  }
+  if (session) {
+    session->throttle(message);  // on its status, logged within the session's budget
+    return false;
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_throttle_log_ < kNoSessionReportPeriod) {
+      ++throttled_not_logged_;
+      return false;
+    }
+    last_throttle_log_ = now;
+    line = message;
+    if (throttled_not_logged_ > 0) {
+      line += " (and " + std::to_string(throttled_not_logged_) + " more dropped since the last line)";
+      throttled_not_logged_ = 0;
+    }
+  }
+  logger_.log(LogLevel::kWarning, robot_id, line);
+  return false;
+}
+
+uint64_t Server::requests_throttled() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return throttled_;
 }
 
 uint64_t Server::messages_refused_for_robot_id() const {

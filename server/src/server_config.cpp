@@ -90,6 +90,19 @@ constexpr double kMaxDeadlineS = 86400.0;
 constexpr long kMaxSessionsPerWorker = 100000;
 
 // sessions_per_worker: 'auto' (WorkerSettings::kAuto) or 1..kMaxSessionsPerWorker.
+// request_limits: {session_requests: {per_s, burst}, initial_poses: {...}, map_saves: {...}}.
+void parse_request_limits(const Params& p, RequestLimits& limits) {
+  p.expect_only({"session_requests", "initial_poses", "map_saves"});
+  for (size_t k = 0; k < kRequestKinds; ++k) {
+    const std::string key = std::string(request_limit_key(static_cast<RequestKind>(k))).substr(sizeof "request_limits");
+    const Params rate = p.child(key);
+    rate.expect_only({"per_s", "burst"});
+    RequestRate& r = limits.rates[k];
+    r.per_s = rate.number("per_s", r.per_s, Range::closed(0.001, 1e6));
+    r.burst = static_cast<double>(rate.integer("burst", static_cast<long>(r.burst), 1, 1'000'000));
+  }
+}
+
 size_t sessions_per_worker(const Params& p) {
   const YAML::Node value = p.node()["sessions_per_worker"];
   if (value.IsScalar() && value.Scalar() == "auto") return WorkerSettings::kAuto;
@@ -188,7 +201,8 @@ ServerConfig ServerConfig::parse(const std::string& yaml_text, const std::string
   const Params root = Params::parse(yaml_text, source_name);
   root.expect_only({"server_id", "domain_id", "plugin_directories", "map_directories", "output_directory", "workers",
                     "queue_depth", "max_sessions", "status_period_s", "session_grace_s", "limits", "log_level",
-                    "sessions", "plugin_workers", "state_directory", "weight", "server_group"});
+                    "sessions", "plugin_workers", "state_directory", "weight", "server_group",
+                    "request_limits"});
   ServerConfig c;
   c.server_id = root.text("server_id", default_server_id());
   if (c.server_id.empty() || c.server_id.size() > 64) {
@@ -232,6 +246,8 @@ ServerConfig ServerConfig::parse(const std::string& yaml_text, const std::string
   c.limits.max_detections = limit(limits, "max_detections", defaults.max_detections, 4096);
   c.limits.max_particles = limit(limits, "max_particles", defaults.max_particles, 10'000'000);
   c.limits.max_map_cells = limit(limits, "max_map_cells", defaults.max_map_cells, 1'000'000'000);
+
+  parse_request_limits(root.child("request_limits"), c.request_limits);
 
   if (root.has("sessions")) {
     const YAML::Node list = root.node()["sessions"];

@@ -166,6 +166,16 @@ void Session::reject_input(const std::string& error) {
   publish_status_later();
 }
 
+void Session::throttle(const std::string& message) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++counters_.throttled;
+    last_error_ = message;
+  }
+  log_rejection(message);
+  publish_status_later();
+}
+
 void Session::report_output_problem(const std::string& problem) {
   {
     std::lock_guard<std::mutex> lock(mutex_);

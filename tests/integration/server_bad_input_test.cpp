@@ -16,6 +16,7 @@
 #include <limits>
 #include <mutex>
 #include <optional>
+#include <sstream>
 #include <thread>
 
 #include "child_process.hpp"
@@ -40,7 +41,8 @@ std::string describe(const Status& s) {
          std::to_string(s.request_id) + (s.request_ok ? " ok" : " failed") + " message '" + s.message +
          "' last_error '" + s.last_error + "' received " + std::to_string(s.received) + " used " +
          std::to_string(s.used) + " dropped " + std::to_string(s.dropped) + " rejected " +
-         std::to_string(s.rejected) + " updates " + std::to_string(s.updates);
+         std::to_string(s.rejected) + " updates " + std::to_string(s.updates) + " throttled " +
+         std::to_string(s.throttled);
 }
 
 bool feature_ekf_built() { return fs::exists(fs::path(locd::test::plugin_dir()) / "liblocd_feature_ekf.so"); }
@@ -457,6 +459,60 @@ TEST(ServerBadInput, ARobotNamingAnotherInItsOwnPartitionDoesNotKeepThatRobotsSe
   done = true;
   squatter.join();
   EXPECT_CONTAINS(ended.message, "session ended: no live writer of robot 'robot_a'");
+}
+
+// Rate limits over DDS: robot "flooder" writes session requests with fresh ids as fast as it can
+// from a participant of its own, in its own partition, until its status counts some as
+// throttled. The server started its plugin no more often than its limit allows (default 1/s with
+// a burst of 10), and robot "steady" kept its session, unrestarted, with poses for its odometry.
+TEST(ServerBadInput, ARequestFloodIsCutToTheRobotsLimitAndAnotherRobotKeepsItsSession) {
+  LocdOverDds locd(206);
+  ASSERT_TRUE(locd.request("steady", 1, "", kFixtureConfig).request_ok);
+  locd::dds::Participant flooder_side(206);
+  locd::dds::Writer<locd_msg_SessionRequest> flood(flooder_side, locd::topics::kSessionRequest, QosProfile::kState, 8,
+                                                   {locd::topics::robot_partition("flooder")});
+  auto sample = std::make_unique<locd_msg_SessionRequest>();
+  std::memset(sample.get(), 0, sizeof(locd_msg_SessionRequest));
+  locd::dds::copy_string(sample->robot_id, "flooder");
+  locd::dds::copy_string(sample->config_yaml, kFixtureConfig);
+  sample->action = locd_msg_SESSION_START;
+  const auto start = std::chrono::steady_clock::now();
+  std::atomic<bool> done{false};
+  std::thread flooder([&] {
+    while (!done) {
+      ++sample->request_id;
+      flood.write(*sample);
+    }
+  });
+  int64_t stamp = 1000;
+  for (int i = 0; i < 20; ++i) {  // steady's odometry at 20 Hz meanwhile
+    locd.send_odometry("steady", stamp += 50'000'000, 0.01 * i);
+    std::this_thread::sleep_for(50ms);
+  }
+  const auto throttled = locd.wait_status("flooder", [](const Status& s) { return s.throttled > 0; });
+  done = true;
+  flooder.join();
+  EXPECT_CONTAINS(throttled.last_error, "of robot 'flooder' dropped: over the robot's limit of 1 a second (burst 10), "
+                                        "request_limits.session_requests in the server config");
+  // steady: never restarted, nothing throttled, and its odometry still answered.
+  locd.send_odometry("steady", stamp += 50'000'000, 1.0);
+  EXPECT_TRUE(locd.wait_pose_stamp("steady", stamp));
+  const auto steady = locd.wait_status("steady", [](const Status& s) { return s.used >= 1; });
+  EXPECT_EQ(steady.request_id, 1u) << describe(steady);
+  EXPECT_EQ(steady.state, "running");
+  EXPECT_EQ(steady.throttled, 0u);
+  // The flooder's plugin was started at most burst + rate x elapsed times (each start is a line).
+  const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const std::string log = locd.locd().output();
+  size_t starts = 0;  // "[flooder] session request N" lines (not the ones saying it was dropped)
+  std::istringstream lines(log);
+  for (std::string line; std::getline(lines, line);) {
+    starts += line.find("[flooder] session request ") != std::string::npos && line.find("dropped") == std::string::npos;
+  }
+  EXPECT_GE(starts, 1u);
+  EXPECT_LE(static_cast<double>(starts), 10 + 1 + elapsed_s) << "in " << elapsed_s << " s:\n" << log;
+  std::cout << "flood: " << sample->request_id << " requests written in " << elapsed_s << " s, " << starts
+            << " plugin starts, " << throttled.throttled << " throttled (on the status)\n";
 }
 
 // A robot id outside [A-Za-z0-9_.-]{1,64} is refused before anything is kept for it, and the log

@@ -109,6 +109,22 @@ TEST(ServerConfig, EachBadValueNamesKeyAndAllowedRange) {
       2.0);
 }
 
+TEST(ServerConfig, RequestLimitsPerKindWithTheirDefaults) {
+  using locd::server::RequestKind;
+  const auto c = ServerConfig::parse("request_limits: {initial_poses: {per_s: 0.5, burst: 2}}\n", "t.yaml", kBase);
+  EXPECT_DOUBLE_EQ(c.request_limits.of(RequestKind::kInitialPose).per_s, 0.5);
+  EXPECT_DOUBLE_EQ(c.request_limits.of(RequestKind::kInitialPose).burst, 2.0);
+  const locd::server::RequestLimits defaults;
+  EXPECT_DOUBLE_EQ(c.request_limits.of(RequestKind::kSessionRequest).per_s,
+                   defaults.of(RequestKind::kSessionRequest).per_s);
+  EXPECT_DOUBLE_EQ(c.request_limits.of(RequestKind::kMapSave).burst, defaults.of(RequestKind::kMapSave).burst);
+  expect_error("request_limits: {session_requests: {per_s: 0}}",
+               {"'request_limits.session_requests.per_s'", "allowed: [0.001, 1e+06]"});
+  expect_error("request_limits: {map_saves: {burst: 0}}", {"'request_limits.map_saves.burst'", "allowed: [1, 1000000]"});
+  expect_error("request_limits: {map_saves: {rate: 1}}", {"unknown parameter 'request_limits.map_saves.rate'", "per_s"});
+  expect_error("request_limits: {poses: {}}", {"unknown parameter 'request_limits.poses'", "initial_poses"});
+}
+
 TEST(ServerConfig, UnknownKeysNameTheKeyWhereItStandsAndTheKnownOnes) {
   expect_error("domain_id: 1\nworker: 3\n", {"unknown parameter 'worker'", "line 2, column 1", "known:", "workers"});
   expect_error("limits:\n  max_beams: 3\n", {"unknown parameter 'limits.max_beams'", "line 2", "max_scan_beams"});

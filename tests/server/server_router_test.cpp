@@ -175,6 +175,60 @@ TEST_F(ServerRouterTest, StopEndsTheSession) {
   EXPECT_EQ(server_->find("r5"), nullptr);
 }
 
+// Rate limits (request_limits, defaults: session requests 1/s with a burst of 10, initial poses
+// 5/s with 10): a robot flooding the server with requests and initial poses gets its burst and
+// its rate, the rest is dropped and counted; another robot's session runs on untouched.
+TEST_F(ServerRouterTest, AFloodOfRequestsIsCutToTheRobotsRateAndTheOtherRobotRunsOn) {
+  ASSERT_TRUE(request("quiet", 1, "", "plugin: fixture_odometry\n").request_ok);
+  const RequestLimits limits;
+  const auto& requests = limits.of(RequestKind::kSessionRequest);
+  const auto& poses = limits.of(RequestKind::kInitialPose);
+  constexpr int kRequests = 2000, kPoses = 500, kOdometry = 40;
+  const auto start = std::chrono::steady_clock::now();
+  for (int i = 1; i <= kRequests; ++i) {
+    server_->on_session_request({"flooder", static_cast<uint64_t>(i), false, "", "plugin: fixture_odometry\n"});
+    if (i % (kRequests / kOdometry) == 0) {
+      // The quiet robot's odometry, each used before the next is sent (as at its own rate).
+      server_->on_measurement("quiet", odometry(i, 0.001 * i));
+      EXPECT_TRUE(sink_.wait_for([i](const auto&, const auto& outputs) {
+        for (const auto& o : outputs) {
+          if (o.robot_id == "quiet" && o.result.estimate && o.result.estimate->header.stamp_ns == i) return true;
+        }
+        return false;
+      })) << "no pose for the quiet robot's odometry at " << i;
+    }
+  }
+  const double requests_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const uint64_t requests_throttled = server_->requests_throttled();
+  EXPECT_LE(requests_throttled, kRequests - requests.burst);
+  EXPECT_GE(requests_throttled, kRequests - requests.burst - 1 - requests.per_s * requests_s);
+
+  ASSERT_TRUE(sink_.wait_status("flooder", [](const auto& s) { return s.state == SessionState::kRunning; }));
+  const auto poses_start = std::chrono::steady_clock::now();
+  for (int i = 0; i < kPoses; ++i) server_->on_initial_pose("flooder", PoseEstimate{});
+  const double poses_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - poses_start).count();
+  const uint64_t poses_throttled = server_->requests_throttled() - requests_throttled;
+  EXPECT_LE(poses_throttled, kPoses - poses.burst);
+  EXPECT_GE(poses_throttled, kPoses - poses.burst - 1 - poses.per_s * poses_s);
+  // Throttled with a session: on the robot's status (the requests, from when the session existed),
+  // naming the limit and its key.
+  const auto flooder = server_->find("flooder")->status();
+  EXPECT_GE(flooder.counters.throttled, poses_throttled);
+  EXPECT_LE(flooder.counters.throttled, poses_throttled + requests_throttled);
+  EXPECT_NE(flooder.last_error.find("initial pose of robot 'flooder' dropped: over the robot's limit of 5 a second "
+                                    "(burst 10), request_limits.initial_poses in the server config"),
+            std::string::npos)
+      << flooder.last_error;
+  EXPECT_EQ(flooder.counters.received, kPoses - poses_throttled);  // the initial poses let through
+  // The quiet robot: every odometry message used, its session never restarted or throttled.
+  const auto quiet = server_->find("quiet")->status();
+  EXPECT_EQ(quiet.request_id, 1u);
+  EXPECT_EQ(quiet.counters.used, static_cast<uint64_t>(kOdometry));
+  EXPECT_EQ(quiet.counters.throttled, 0u);
+  EXPECT_EQ(quiet.counters.dropped, 0u);
+  EXPECT_EQ(quiet.counters.rejected, 0u) << quiet.last_error;
+}
+
 }  // namespace
 
 namespace {

@@ -130,6 +130,7 @@ SessionStatus status_from_wire(const locd_msg_SessionStatus& m) {
   s.localization = localization_name(m.localization);
   s.localization_reason = dds::to_string(m.localization_reason);
   s.held = m.held;
+  s.throttled = m.throttled;
   s.waiting_for = dds::to_string(m.waiting_for);
   s.stamp_ns = m.header.stamp_ns;
   return s;

@@ -106,6 +106,7 @@ Json status_json(const SessionStatus& s) {
           {"localization", s.localization},
           {"localization_reason", s.localization_reason},
           {"held", s.held},
+          {"throttled", s.throttled},
           {"waiting_for", s.waiting_for},
           {"stamp_ns", s.stamp_ns}};
 }
@@ -252,7 +253,7 @@ int command_status(const CommandLine& cl) {
   // New columns go before LAST_ERROR (free text, last), so scripts reading the older ones still work.
   const std::vector<std::string> header = {"ROBOT",   "STATE",   "PLUGIN",       "SERVER",   "RECEIVED",
                                            "USED",    "DROPPED", "REJECTED",     "UPDATES",  "LAST_MS",
-                                           "LOCALIZATION", "FAILURES", "LOST",    "HELD",     "LAST_ERROR"};
+                                           "LOCALIZATION", "FAILURES", "LOST",    "HELD",     "THROTTLED", "LAST_ERROR"};
   std::vector<std::vector<std::string>> rows = {header};
   for (const auto& s : statuses) {
     char last_ms[32];
@@ -261,6 +262,7 @@ int command_status(const CommandLine& cl) {
                     std::to_string(s.received), std::to_string(s.used), std::to_string(s.dropped),
                     std::to_string(s.rejected), std::to_string(s.updates), last_ms, s.localization,
                     std::to_string(s.failures), std::to_string(s.lost), std::to_string(s.held),
+                    std::to_string(s.throttled),
                     s.last_error.empty() ? "-" : escaped(s.last_error, 4096)});
   }
   std::vector<size_t> widths(header.size(), 0);

@@ -73,7 +73,7 @@ std::map<std::string, std::string> make_schemas() {
                                     {"dropped", type("integer")}, {"rejected", type("integer")},
                                     {"updates", type("integer")}, {"last_update_ms", type("number")},
                                     {"failures", type("integer")}, {"localization", type("string")},
-                                    {"localization_reason", type("string")}});
+                                    {"localization_reason", type("string")}, {"throttled", type("integer")}});
   s["locd.DiagnosticValues"] = object({{"timestamp", time()}, {"plugin", type("string")},
                                        {"values", {{"type", "object"}, {"additionalProperties", type("number")}}},
                                        {"particles", type("integer")}, {"associations", type("integer")}});
@@ -264,7 +264,7 @@ Json session_status(const locd_msg_SessionStatus& m) {
           {"last_error", s.last_error}, {"received", s.received}, {"used", s.used}, {"dropped", s.dropped},
           {"rejected", s.rejected}, {"updates", s.updates}, {"last_update_ms", s.last_update_ms},
           {"failures", s.failures}, {"localization", s.localization},
-          {"localization_reason", s.localization_reason}};
+          {"localization_reason", s.localization_reason}, {"throttled", s.throttled}};
 }
 
 }  // namespace locd::view

@@ -29,6 +29,9 @@ struct SessionCounters {
   // Messages taken and not yet used, dropped or rejected (queued, or with the plugin): always
   // received = used + dropped + rejected + held.
   uint64_t held = 0;
+  // Session requests, initial poses and map saves dropped over the robot's rate limit
+  // (request_limits); not counted in received.
+  uint64_t throttled = 0;
 };
 
 struct SessionStatusReport {

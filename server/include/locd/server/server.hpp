@@ -58,6 +58,8 @@ class Server {
   // for it.
   void on_invalid_robot_id(const std::string& topic, const std::string& error);
   uint64_t messages_refused_for_robot_id() const;
+  // Requests, initial poses and map saves dropped over their robot's rate limit.
+  uint64_t requests_throttled() const;
 
   // Session ownership (session_ownership.cpp). The bridge reports when the last live writer of a
   // robot's requests and sensor data is gone (alive false) or one is back (alive true); a session
@@ -122,6 +124,9 @@ class Server {
   // A session request (or stop) this server answers with a refusal: state no_session, the
   // request not ok, `message` saying why. Written on the pool, so callable under the lock.
   void publish_refusal(const std::string& robot_id, uint64_t request_id, std::string message);
+  // The robot's rate limit (request_limits): true when `what` may be acted on; otherwise it is
+  // counted as throttled on the robot's status (if it has a session here) and in the log.
+  bool admit(const std::string& robot_id, RequestKind kind, const std::string& what);
 
   ServerConfig config_;
   const PluginIndex& catalog_;
@@ -131,6 +136,7 @@ class Server {
   WorkerPool pool_;
   PluginWorkers workers_;
   SessionEnvironment environment_;
+  RequestLimiter limiter_;
   StateFile state_file_;
   int64_t started_ns_;
   std::chrono::steady_clock::time_point started_;
@@ -147,6 +153,9 @@ class Server {
   uint64_t refused_robot_ids_ = 0;
   uint64_t refused_robot_ids_not_logged_ = 0;
   std::chrono::steady_clock::time_point last_refusal_log_{};
+  uint64_t throttled_ = 0;                    // requests over their robot's limit, every robot
+  uint64_t throttled_not_logged_ = 0;         // of those, of robots without a session here
+  std::chrono::steady_clock::time_point last_throttle_log_{};
   std::map<std::string, ResumeState> saved_;  // the last run's states, given to sessions as they start
   // The latest start request of every robot (served here or elsewhere), and which one this
   // server acted on; the fleet's view; the other servers' resume states.

@@ -12,6 +12,7 @@
 #include "locd/sdk/plugin.hpp"
 #include "locd/sdk/plugin_config.hpp"
 #include "locd/server/plugin_workers.hpp"
+#include "locd/server/request_limiter.hpp"
 
 namespace locd::server {
 
@@ -38,6 +39,7 @@ struct ServerConfig {
   // requests or sensor data remains (session ownership); boot sessions are the server's own.
   double session_grace_s = 10.0;
   Limits limits;
+  RequestLimits request_limits;  // per robot: session requests, initial poses, map saves
   LogLevel log_level = LogLevel::kInfo;
   std::vector<BootSession> sessions;
   WorkerSettings plugin_workers;            // how plugins run: worker processes, deadlines, memory

@@ -40,6 +40,7 @@ struct SessionStatus {
   std::string localization_reason;       // the plugin's criterion
   uint64_t held = 0;        // taken, not yet used, dropped or rejected: received = used + dropped + rejected + held
   std::string waiting_for;  // what the held messages wait for (empty when none is held)
+  uint64_t throttled = 0;   // session requests, initial poses, map saves over the robot's rate limit, dropped
   int64_t stamp_ns = 0;
 };
 
