@@ -194,6 +194,17 @@ TEST(Mcap, TruncatedAnywhereYieldsAPrefixAndSaysWhere) {
     previous = got.size();
   }
   EXPECT_GT(previous, w.messages.size() / 2);
+  // Cut inside the closing magic bytes: every message, and the file said truncated.
+  for (size_t missing = 1; missing < 8; ++missing) {
+    spit(cut, bytes.substr(0, bytes.size() - missing));
+    ReadSummary summary;
+    std::vector<std::pair<uint16_t, std::vector<uint8_t>>> got;
+    ASSERT_NO_THROW(got = read_all(cut, &summary)) << missing << " bytes missing";
+    EXPECT_FALSE(summary.complete);
+    EXPECT_NE(summary.incomplete_reason.find("inside its closing magic bytes"), std::string::npos)
+        << summary.incomplete_reason;
+    EXPECT_EQ(got, w.messages);
+  }
 }
 
 TEST(Mcap, ForeignFileIsRefusedByName) {

@@ -391,20 +391,23 @@ ReadSummary Reader::read(const std::function<void(const Message&)>& on_message) 
   std::string content;
   for (;;) {
     const uint64_t left = file_size_ - offset;
+    if (footer_seen) {
+      char magic[kMagicSize];
+      if (left <= kMagicSize && std::fread(magic, 1, left, file_) == left && std::memcmp(magic, kMagic, left) == 0) {
+        if (left < kMagicSize) {
+          summary.incomplete_reason = "the file ends inside its closing magic bytes at byte " +
+                                      std::to_string(file_size_) + " (truncated)";
+          break;
+        }
+        summary.complete = data_end_seen;
+        if (!data_end_seen) summary.incomplete_reason = "no Data End record before the summary";
+        break;
+      }
+      fail(offset, "the footer must be followed by the closing magic bytes and nothing else");
+    }
     if (left == 0) {
       summary.incomplete_reason = "the file ends at byte " + std::to_string(offset) + " without a footer (truncated: the recorder was stopped before closing it)";
       break;
-    }
-    if (footer_seen) {
-      if (left == kMagicSize) {
-        char magic[kMagicSize];
-        if (std::fread(magic, 1, kMagicSize, file_) == kMagicSize && std::memcmp(magic, kMagic, kMagicSize) == 0) {
-          summary.complete = data_end_seen;
-          if (!data_end_seen) summary.incomplete_reason = "no Data End record before the summary";
-          break;
-        }
-      }
-      fail(offset, "the footer must be followed by the closing magic bytes and nothing else");
     }
     if (left < kRecordPrefix) {
       summary.incomplete_reason = "the file ends inside a record at byte " + std::to_string(offset) + " (truncated)";
