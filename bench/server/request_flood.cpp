@@ -38,7 +38,8 @@ int main(int argc, char** argv) {
   auto request = std::make_unique<locd_msg_SessionRequest>();
   std::memset(request.get(), 0, sizeof(locd_msg_SessionRequest));
   dds::copy_string(request->robot_id, robot);
-  dds::copy_string(request->config_yaml, "plugin: feature_ekf\nparams:\n  map: corridor.yaml\n");
+  const std::string config = "plugin: feature_ekf\nparams:\n  map: corridor.yaml\n";
+  dds::borrow_text(request->config_yaml, config, topics::kMaxConfigYamlBytes);
   request->action = locd_msg_SESSION_START;
   const auto start = Clock::now();
   const auto end = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));

@@ -3,7 +3,8 @@
 # in one run: robot A (locsim live corridor, feature_ekf, 20 s) alone, then with robot "flooder"
 # writing session requests at RATE a second (default 10000; 0 = as fast as it can) from its own
 # participant, against each build's locd. Prints A's poses and latency, and the flood's rate.
-# Usage (as root, from the repository root; build/bin/request_flood from `cmake -DLOCD_BUILD_BENCH=ON`):
+# Each build floods with its own request_flood (its own IDL): `cmake -DLOCD_BUILD_BENCH=ON` and
+# `make request_flood` in both. Usage (as root, from the repository root):
 #   bench/server/request_flood.sh BEFORE_BUILD_DIR AFTER_BUILD_DIR [ROUNDS] [RATE]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -27,7 +28,7 @@ CONFIG
   local flood_json="$work/flood.json"
   echo '{}' > "$flood_json"
   if [ "$flood" = 1 ]; then
-    run "$PWD/build/bin/request_flood" --domain 93 --robot flooder --rate "$rate" --seconds 22 > "$flood_json" &
+    run "$build/bin/request_flood" --domain 93 --robot flooder --rate "$rate" --seconds 22 > "$flood_json" &
   fi
   if ! run "$build/bin/locsim" live config/scenarios/corridor.yaml --domain 93 --duration 20 --json > "$work/a.json" \
       2> "$work/a.err"; then

@@ -83,7 +83,8 @@ int main(int argc, char** argv) {
   std::memset(request.get(), 0, sizeof(locd_msg_SessionRequest));
   locd::dds::copy_string(request->robot_id, robot);
   request->request_id = static_cast<uint64_t>(steady_ns());
-  locd::dds::copy_string(request->config_yaml, "plugin: fixture_odometry\n");
+  const std::string config = "plugin: fixture_odometry\n";
+  locd::dds::borrow_text(request->config_yaml, config, locd::topics::kMaxConfigYamlBytes);
   const int64_t requested_ns = steady_ns();
   requests.write(*request);
   // The session runs, and the server's pose writer for this robot (made with the session) matched.

@@ -88,6 +88,26 @@ T take_one(dds::Reader<T>& reader) {
   return got.front();
 }
 
+// A SessionRequest taken, with its config_yaml (an octet sequence) copied out of the loan.
+struct TakenRequest {
+  std::string robot_id, plugin, config_yaml;
+  uint64_t request_id = 0;
+  locd_msg_SessionAction action = locd_msg_SESSION_START;
+};
+TakenRequest take_request(dds::Reader<locd_msg_SessionRequest>& reader) {
+  std::vector<TakenRequest> got;
+  EXPECT_TRUE(eventually([&] {
+    reader.take([&](const locd_msg_SessionRequest& m) {
+      got.push_back({dds::to_string(m.robot_id), dds::to_string(m.plugin), dds::to_string(m.config_yaml), m.request_id,
+                     m.action});
+    });
+    return !got.empty();
+  })) << "nothing received on " << reader.topic();
+  if (got.empty()) throw std::runtime_error("nothing received on " + reader.topic());
+  EXPECT_EQ(got.size(), 1u) << reader.topic();
+  return got.front();
+}
+
 Eigen::Isometry3d some_pose(double x, double y, double z, double yaw, double pitch) {
   return Eigen::Translation3d(x, y, z) * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
          Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY());
@@ -405,11 +425,11 @@ TEST(ClientLibrary, RequestIsAnsweredOnlyByTheStatusWithItsRequestId) {
   std::string yaml = "plugin: feature_ekf\nparams:\n  map: corridor.yaml\n#";
   yaml.append(200'000, 'x');
   auto pending = std::async(std::launch::async, [&] { return client.request_session("feature_ekf", yaml, 10s); });
-  const auto request = take_one(requests);
-  EXPECT_EQ(dds::to_string(request.robot_id), "robot_req");
+  const auto request = take_request(requests);
+  EXPECT_EQ(request.robot_id, "robot_req");
   EXPECT_EQ(request.action, locd_msg_SESSION_START);
-  EXPECT_EQ(dds::to_string(request.plugin), "feature_ekf");
-  EXPECT_EQ(dds::to_string(request.config_yaml), yaml);
+  EXPECT_EQ(request.plugin, "feature_ekf");
+  EXPECT_EQ(request.config_yaml, yaml);
   EXPECT_NE(request.request_id, 0u);
 
   // None of these answers the request: another robot, a stale id, a "starting" without outcome.
@@ -436,7 +456,7 @@ TEST(ClientLibrary, RequestIsAnsweredOnlyByTheStatusWithItsRequestId) {
 
   // A refused request comes back with request_ok false and the server's message.
   auto refused = std::async(std::launch::async, [&] { return client.request_session("nope", "plugin: nope\n", 10s); });
-  const auto second = take_one(requests);
+  const auto second = take_request(requests);
   EXPECT_NE(second.request_id, request.request_id);
   statuses.write(make_status("robot_req", second.request_id, locd_msg_STATE_RUNNING, false,
                              "unknown plugin 'nope'; known: feature_ekf"));
@@ -447,10 +467,10 @@ TEST(ClientLibrary, RequestIsAnsweredOnlyByTheStatusWithItsRequestId) {
 
   // Stop: action STOP, empty plugin and config.
   auto stopping = std::async(std::launch::async, [&] { return client.stop_session(10s); });
-  const auto stop = take_one(requests);
+  const auto stop = take_request(requests);
   EXPECT_EQ(stop.action, locd_msg_SESSION_STOP);
-  EXPECT_EQ(dds::to_string(stop.plugin), "");
-  EXPECT_EQ(dds::to_string(stop.config_yaml), "");
+  EXPECT_EQ(stop.plugin, "");
+  EXPECT_EQ(stop.config_yaml, "");
   statuses.write(make_status("robot_req", stop.request_id, locd_msg_STATE_STOPPED, true, "session stopped"));
   const auto stopped = stopping.get();
   ASSERT_TRUE(stopped.has_value());

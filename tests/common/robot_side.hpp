@@ -79,7 +79,7 @@ class RobotSide {
     request->request_id = request_id;
     request->action = locd_msg_SESSION_START;
     dds::copy_string(request->plugin, plugin);
-    dds::copy_string(request->config_yaml, config_yaml);
+    dds::borrow_text(request->config_yaml, config_yaml, locd::topics::kMaxConfigYamlBytes);
     requests_.write(*request);
     std::unique_lock<std::mutex> lock(mutex_);
     return wait(lock, [&] { return status_.state == "running" && status_.request_id == request_id; }, "session running");

@@ -113,7 +113,7 @@ class LocdOverDds {
     sample->request_id = id;
     sample->action = action;
     locd::dds::copy_string(sample->plugin, plugin);
-    locd::dds::copy_string(sample->config_yaml, yaml);
+    locd::dds::borrow_text(sample->config_yaml, yaml, locd::topics::kMaxConfigYamlBytes);
     endpoints(from.empty() ? robot : from).requests.write(*sample);
   }
 
@@ -474,7 +474,7 @@ TEST(ServerBadInput, ARequestFloodIsCutToTheRobotsLimitAndAnotherRobotKeepsItsSe
   auto sample = std::make_unique<locd_msg_SessionRequest>();
   std::memset(sample.get(), 0, sizeof(locd_msg_SessionRequest));
   locd::dds::copy_string(sample->robot_id, "flooder");
-  locd::dds::copy_string(sample->config_yaml, kFixtureConfig);
+  locd::dds::borrow_text(sample->config_yaml, kFixtureConfig, locd::topics::kMaxConfigYamlBytes);
   sample->action = locd_msg_SESSION_START;
   const auto start = std::chrono::steady_clock::now();
   std::atomic<bool> done{false};

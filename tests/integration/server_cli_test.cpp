@@ -185,7 +185,7 @@ class Robot {
     locd::dds::copy_string(sample->robot_id, robot);
     sample->request_id = id;
     sample->action = locd_msg_SESSION_START;
-    locd::dds::copy_string(sample->config_yaml, yaml);
+    locd::dds::borrow_text(sample->config_yaml, yaml, locd::topics::kMaxConfigYamlBytes);
     requests_.write(*sample);
   }
   void send_odometry(const std::string& robot, int64_t stamp, double x) {

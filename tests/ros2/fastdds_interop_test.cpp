@@ -38,6 +38,9 @@ using locd::test::take_all;
 using locd::test::to_fast;
 using locd::test::wall_ns;
 
+// SessionRequest.config_yaml is text in an octet sequence.
+std::vector<uint8_t> octets(const std::string& text) { return {text.begin(), text.end()}; }
+
 // The corridor robot driven for `duration_s` of simulated time at `rate` times real time; every
 // measurement to `publish` stamped from `origin_ns`; returns the truth at each scan's stamp.
 template <typename Publish>
@@ -128,7 +131,7 @@ TEST(FastDds, RequestsASessionDrivesARobotAndReadsPoseStatusAndServerInfo) {
   request->request_id(7);
   request->action(wire::SESSION_START);
   request->plugin() = "feature_ekf";
-  request->config_yaml() = scenario.localizer.config_text;
+  request->config_yaml() = octets(scenario.localizer.config_text);
   ASSERT_TRUE(requests->write(request.get()));
   ASSERT_TRUE(status_where([](const wire::SessionStatus& s) { return s.request_id() == 7 && s.state() == wire::STATE_RUNNING; }))
       << "last status: " << status.message().to_string() << "\n" << locd.process().output();
@@ -221,10 +224,10 @@ TEST(FastDds, Ros2RobotOnFastDdsReadsItsPoseWithCovarianceStamped) {
   request->robot_id() = robot;
   request->request_id(1);
   request->action(wire::SESSION_START);
-  request->config_yaml() = scenario.localizer.config_text +
-                           "\nros2:\n  namespace: /fastros\n"
-                           "  topics: {scan: scan, odometry: odom, initial_pose: initialpose, pose: amcl_pose}\n"
-                           "  sensor_frames: {laser: [0.2, 0, 0, 0, 0, 0]}\n";  // the corridor laser's mount
+  request->config_yaml() = octets(scenario.localizer.config_text +
+                                  "\nros2:\n  namespace: /fastros\n"
+                                  "  topics: {scan: scan, odometry: odom, initial_pose: initialpose, pose: amcl_pose}\n"
+                                  "  sensor_frames: {laser: [0.2, 0, 0, 0, 0, 0]}\n");  // the corridor laser's mount
   ASSERT_TRUE(requests->write(request.get()));
   wire::SessionStatus status;
   auto status_where = [&](auto predicate) {

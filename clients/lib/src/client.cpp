@@ -349,7 +349,6 @@ struct Client::Impl {
   std::optional<SessionStatus> send_request(locd_msg_SessionAction action, const std::string& plugin,
                                             const std::string& config_yaml, std::chrono::milliseconds timeout) {
     require_robot(action == locd_msg_SESSION_START ? "request_session" : "stop_session");
-    // 256 KiB of config_yaml: on the heap, never on the stack.
     auto request = std::make_unique<locd_msg_SessionRequest>();
     std::memset(request.get(), 0, sizeof(locd_msg_SessionRequest));
     try {
@@ -362,12 +361,12 @@ struct Client::Impl {
     } catch (const std::length_error& e) {
       throw std::invalid_argument("plugin name " + std::string(e.what()));
     }
-    if (config_yaml.size() >= sizeof(request->config_yaml)) {
+    if (config_yaml.size() > topics::kMaxConfigYamlBytes) {
       throw std::invalid_argument("config_yaml is " + std::to_string(config_yaml.size()) + " bytes; " +
                                   topics::kSessionRequest + " allows at most " +
-                                  std::to_string(sizeof(request->config_yaml) - 1));
+                                  std::to_string(topics::kMaxConfigYamlBytes));
     }
-    dds::copy_string(request->config_yaml, config_yaml);
+    dds::borrow_text(request->config_yaml, config_yaml, topics::kMaxConfigYamlBytes);
     request->action = action;
     request->request_id = fresh_request_id();
     const uint64_t id = request->request_id;

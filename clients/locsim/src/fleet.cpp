@@ -423,7 +423,7 @@ int run_fleet(const Scenario& scenario, const FleetOptions& options) {
     dds::copy_string(request->robot_id, ids[i]);
     request->request_id = request_id;
     request->action = locd_msg_SESSION_START;
-    dds::copy_string(request->config_yaml, scenario.localizer.config_text);
+    dds::borrow_text(request->config_yaml, scenario.localizer.config_text, topics::kMaxConfigYamlBytes);
     group_of(i).requests.write(*request);
   }
   auto wait_all = [&](const std::function<bool(const SessionStatus&)>& done, const char* what) {

@@ -512,16 +512,15 @@ int run_bag_replay(const ReplayOptions& options) {
   const auto wall_start = Clock::now();
   bool stopped = false;
   {
-    auto request = std::make_unique<locd_msg_SessionRequest>();  // 256 KiB of config: on the heap
-    std::memset(request.get(), 0, sizeof(locd_msg_SessionRequest));
-    if (config_text.size() >= sizeof(request->config_yaml)) {
+    auto request = std::make_unique<locd_msg_SessionRequest>();
+    if (config_text.size() > topics::kMaxConfigYamlBytes) {
       std::cerr << "locsim replay: --config " << options.config_file << " is " << config_text.size() << " bytes; "
-                << topics::kSessionRequest << " allows at most " << sizeof(request->config_yaml) - 1 << "\n";
+                << topics::kSessionRequest << " allows at most " << topics::kMaxConfigYamlBytes << "\n";
       return 1;
     }
     dds::copy_string(request->robot_id, robot);
     dds::copy_string(request->plugin, config.plugin);
-    dds::copy_string(request->config_yaml, config_text);
+    dds::borrow_text(request->config_yaml, config_text, topics::kMaxConfigYamlBytes);
     request->action = locd_msg_SESSION_START;
     request->request_id = std::random_device()() | 1u;
     stopped = !target->feed(*mcap::find_topic(topics::kSessionRequest), robot, request.get());

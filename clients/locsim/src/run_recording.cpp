@@ -16,12 +16,12 @@ McapRunRecording::McapRunRecording(const std::string& path, const Scenario& scen
 
 void McapRunRecording::started(const PoseEstimate& initial_pose) {
   const uint64_t t = static_cast<uint64_t>(std::max<int64_t>(initial_pose.header.stamp_ns, 0));
-  auto request = std::make_unique<locd_msg_SessionRequest>();  // 256 KiB of YAML inline: not on the stack
+  auto request = std::make_unique<locd_msg_SessionRequest>();
   dds::copy_string(request->robot_id, robot_id_);
   request->request_id = 1;
   request->action = locd_msg_SESSION_START;
   dds::copy_string(request->plugin, plugin_);
-  dds::copy_string(request->config_yaml, config_text_);
+  dds::borrow_text(request->config_yaml, config_text_, topics::kMaxConfigYamlBytes);
   out_.write_sample(topics::kSessionRequest, robot_id_, t, *request);
   dds::to_wire(robot_id_, initial_pose, [&](const locd_msg_InitialPose& s) {
     out_.write_sample(topics::kInitialPose, robot_id_, t, s);

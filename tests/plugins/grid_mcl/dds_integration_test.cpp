@@ -97,7 +97,8 @@ TEST(GridMclOverDds, TracksOnTheCorridorGridAndABadMapCostsOnlyItsRobot) {
     request->request_id = 7;
     request->action = locd_msg_SESSION_START;
     locd::dds::copy_string(request->plugin, "grid_mcl");
-    locd::dds::copy_string(request->config_yaml, "plugin: grid_mcl\nparams:\n  map: truncated.yaml\n");
+    const std::string config = "plugin: grid_mcl\nparams:\n  map: truncated.yaml\n";
+    locd::dds::borrow_text(request->config_yaml, config, locd::topics::kMaxConfigYamlBytes);
     requests.write(*request);
     auto lock = other.lock();
     ASSERT_TRUE(other.wait(lock, [&] { return other.status().request_id == 7 && !other.status().request_ok &&

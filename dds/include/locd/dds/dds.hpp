@@ -339,7 +339,9 @@ class Reader {
 
   template <typename F>
   static void take_each(dds_entity_t reader, F&& f) {
-    constexpr int kBatch = 16;
+    // Cyclone lends a buffer of kBatch samples and clears all of it on every take: for a type
+    // whose sample is large (inline bounded strings), one at a time.
+    constexpr int kBatch = sizeof(T) > 65536 ? 1 : 16;
     void* samples[kBatch] = {};
     dds_sample_info_t infos[kBatch];
     for (;;) {
@@ -424,6 +426,23 @@ std::string to_string(const char (&src)[N]) {
   size_t len = 0;
   while (len < N && src[len] != '\0') ++len;
   return std::string(src, len);
+}
+
+// Text in a bounded octet sequence (SessionRequest.config_yaml): `dst` borrows `src`'s bytes (valid
+// while `src` lives, unchanged); throws std::length_error when longer than `bound`.
+inline void borrow_text(dds_sequence_octet& dst, const std::string& src, size_t bound) {
+  if (src.size() > bound) {
+    throw std::length_error("'" + src.substr(0, 32) + "...' is " + std::to_string(src.size()) + " bytes, longer than " +
+                            std::to_string(bound));
+  }
+  dst._length = dst._maximum = static_cast<uint32_t>(src.size());
+  dst._buffer = reinterpret_cast<uint8_t*>(const_cast<char*>(src.data()));
+  dst._release = false;
+}
+
+// A std::string from a bounded octet sequence holding text.
+inline std::string to_string(const dds_sequence_octet& src) {
+  return src._buffer ? std::string(reinterpret_cast<const char*>(src._buffer), src._length) : std::string();
 }
 
 // The CYCLONEDDS_URI in effect, for logs ("" = Cyclone's default: the real interface).

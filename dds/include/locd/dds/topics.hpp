@@ -33,6 +33,7 @@ inline constexpr const char* kExplorationGoal = "locd/exploration_goal";  // tra
 
 // Control and state.
 inline constexpr const char* kSessionRequest = "locd/session_request";  // transient-local
+inline constexpr size_t kMaxConfigYamlBytes = 262144;                     // SessionRequest.config_yaml's bound
 inline constexpr const char* kSessionStatus = "locd/session_status";    // transient-local
 inline constexpr const char* kInitialPose = "locd/initial_pose";        // transient-local
 inline constexpr const char* kServerInfo = "locd/server_info";          // transient-local
