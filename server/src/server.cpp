@@ -254,7 +254,10 @@ void Server::on_session_request(SessionRequestMessage request) {
     return;
   }
   const std::string robot_id = request.robot_id;
-  if (!admit(robot_id, RequestKind::kSessionRequest, "session request " + std::to_string(request.request_id))) return;
+  if (!admit(robot_id, RequestKind::kSessionRequest, "session request " + std::to_string(request.request_id),
+             request.request_id)) {
+    return;
+  }
   if (request.stop) {
     std::shared_ptr<Session> session;
     bool answer = false;
@@ -642,7 +645,7 @@ void Server::on_invalid_robot_id(const std::string& topic, const std::string& er
   logger_.log(LogLevel::kWarning, "server", line);
 }
 
-bool Server::admit(const std::string& robot_id, RequestKind kind, const std::string& what) {
+bool Server::admit(const std::string& robot_id, RequestKind kind, const std::string& what, uint64_t request_id) {
   if (limiter_.admit(robot_id, kind)) return true;
   const RequestRate& rate = config_.request_limits.of(kind);
   auto number = [](double v) {
@@ -655,15 +658,38 @@ bool Server::admit(const std::string& robot_id, RequestKind kind, const std::str
                               request_limit_key(kind) + " in the server config";
   std::string line;
   std::shared_ptr<Session> session;
+  bool answer = false;  // a session request dropped is answered, at most once a second per robot
   {
     std::lock_guard<std::mutex> lock(mutex_);
     ++throttled_;
     if (auto it = sessions_.find(robot_id); it != sessions_.end()) session = it->second;
+    if (kind == RequestKind::kSessionRequest) {
+      const auto now = std::chrono::steady_clock::now();
+      if (throttle_answered_.size() >= kMaxUnservedRobots && !throttle_answered_.count(robot_id)) {
+        throttle_answered_.clear();
+      }
+      auto [last, first] = throttle_answered_.try_emplace(robot_id, now);
+      if (first || now - last->second >= kNoSessionReportPeriod) {
+        last->second = now;
+        const auto stored = requests_.find(robot_id);
+        answer = session || fleet_.answers_for(robot_id, stored == requests_.end() ? "" : stored->second.group);
+      }
+    }
   }
   if (session) {
     session->throttle(message);  // on its status, logged within the session's budget
+    if (answer) {
+      // The request's own answer, so the robot need not wait out its timeout; the session's
+      // next status carries its last request handled again.
+      SessionStatusReport status = session->status();
+      status.request_id = request_id;
+      status.request_ok = false;
+      status.message = message;
+      pool_.post([this, status] { sink_.publish_status(status); });
+    }
     return false;
   }
+  if (answer) publish_refusal(robot_id, request_id, message);
   {
     std::lock_guard<std::mutex> lock(mutex_);
     const auto now = std::chrono::steady_clock::now();

@@ -229,6 +229,28 @@ TEST_F(ServerRouterTest, AFloodOfRequestsIsCutToTheRobotsRateAndTheOtherRobotRun
   EXPECT_EQ(quiet.counters.rejected, 0u) << quiet.last_error;
 }
 
+// A session request over the robot's limit is answered (request_ok false, naming the limit), so a
+// robot's client need not wait out its timeout; the running session carries on.
+TEST_F(ServerRouterTest, ARequestOverTheLimitIsAnsweredAsRefusedAndTheSessionRunsOn) {
+  const std::string config = "plugin: fixture_odometry\n";
+  ASSERT_TRUE(request("eager", 1, "", config).request_ok);
+  uint64_t id = 1;
+  while (server_->requests_throttled() == 0 && id < 1000) server_->on_session_request({"eager", ++id, false, "", config});
+  ASSERT_EQ(server_->requests_throttled(), 1u);
+  const auto answer = sink_.wait_status("eager", [id](const SessionStatusReport& s) { return s.request_id == id; });
+  ASSERT_TRUE(answer.has_value());
+  EXPECT_FALSE(answer->request_ok);
+  EXPECT_NE(answer->message.find("session request " + std::to_string(id) +
+                                 " of robot 'eager' dropped: over the robot's limit of 1 a second (burst 10)"),
+            std::string::npos)
+      << answer->message;
+  EXPECT_EQ(answer->counters.throttled, 1u);
+  EXPECT_NE(server_->find("eager"), nullptr);
+  ASSERT_TRUE(sink_.wait_status("eager", [id](const SessionStatusReport& s) {
+    return s.request_id == id - 1 && s.state == SessionState::kRunning;
+  }));
+}
+
 }  // namespace
 
 namespace {

@@ -125,8 +125,9 @@ class Server {
   // request not ok, `message` saying why. Written on the pool, so callable under the lock.
   void publish_refusal(const std::string& robot_id, uint64_t request_id, std::string message);
   // The robot's rate limit (request_limits): true when `what` may be acted on; otherwise it is
-  // counted as throttled on the robot's status (if it has a session here) and in the log.
-  bool admit(const std::string& robot_id, RequestKind kind, const std::string& what);
+  // counted as throttled on the robot's status (if it has a session here) and in the log, and a
+  // session request (`request_id`) is answered as refused, at most once a second per robot.
+  bool admit(const std::string& robot_id, RequestKind kind, const std::string& what, uint64_t request_id = 0);
 
   ServerConfig config_;
   const PluginIndex& catalog_;
@@ -156,6 +157,7 @@ class Server {
   uint64_t throttled_ = 0;                    // requests over their robot's limit, every robot
   uint64_t throttled_not_logged_ = 0;         // of those, of robots without a session here
   std::chrono::steady_clock::time_point last_throttle_log_{};
+  std::map<std::string, std::chrono::steady_clock::time_point> throttle_answered_;  // robot -> last answer
   std::map<std::string, ResumeState> saved_;  // the last run's states, given to sessions as they start
   // The latest start request of every robot (served here or elsewhere), and which one this
   // server acted on; the fleet's view; the other servers' resume states.
