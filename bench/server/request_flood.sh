@@ -3,15 +3,19 @@
 # in one run: robot A (locsim live corridor, feature_ekf, 20 s) alone, then with robot "flooder"
 # writing session requests at RATE a second (default 10000; 0 = as fast as it can) from its own
 # participant, against each build's locd. Prints A's poses and latency, and the flood's rate.
+# ROBOTS > 1: the flooder names robots flooder_0 .. flooder_(ROBOTS-1) in turn from one writer (an
+# operator's identity, or anyone in plain mode); DELAY_S: the flood starts that long after A.
 # Each build floods with its own request_flood (its own IDL): `cmake -DLOCD_BUILD_BENCH=ON` and
 # `make request_flood` in both. Usage (as root, from the repository root):
-#   bench/server/request_flood.sh BEFORE_BUILD_DIR AFTER_BUILD_DIR [ROUNDS] [RATE]
+#   bench/server/request_flood.sh BEFORE_BUILD_DIR AFTER_BUILD_DIR [ROUNDS] [RATE] [ROBOTS] [DELAY_S]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 before="$1"
 after="$2"
 rounds="${3:-2}"
 rate="${4:-10000}"
+robots="${5:-1}"
+delay="${6:-0}"
 source bench/lib/loopback_namespace.sh
 field() { sed -n "s/.*\"$1\":\([^,}]*\).*/\1/p" "$2"; }
 
@@ -28,7 +32,8 @@ CONFIG
   local flood_json="$work/flood.json"
   echo '{}' > "$flood_json"
   if [ "$flood" = 1 ]; then
-    run "$build/bin/request_flood" --domain 93 --robot flooder --rate "$rate" --seconds 22 > "$flood_json" &
+    ( sleep "$delay"; run "$build/bin/request_flood" --domain 93 --robot flooder --rate "$rate" --robots "$robots" \
+        --seconds 22 > "$flood_json" ) &
   fi
   if ! run "$build/bin/locsim" live config/scenarios/corridor.yaml --domain 93 --duration 20 --json > "$work/a.json" \
       2> "$work/a.err"; then

@@ -116,18 +116,23 @@ std::string endpoint_text(const std::string& topic, const Partitions& partitions
   return topic + " in partition " + (partitions.empty() ? std::string("(default)") : "[" + names + "]");
 }
 
-Partitions writer_partitions(dds_entity_t reader, dds_instance_handle_t publication) {
-  Partitions out;
+WriterInfo writer_info(dds_entity_t reader, dds_instance_handle_t publication) {
+  WriterInfo out;
   dds_builtintopic_endpoint_t* endpoint = dds_get_matched_publication_data(reader, publication);
   if (!endpoint) return out;
   uint32_t n = 0;
   char** names = nullptr;
   if (endpoint->qos && dds_qget_partition(endpoint->qos, &n, &names)) {
     for (uint32_t i = 0; i < n; ++i) {
-      out.emplace_back(names[i]);
+      out.partitions.emplace_back(names[i]);
       dds_free(names[i]);
     }
     dds_free(names);
+  }
+  static constexpr char kHex[] = "0123456789abcdef";
+  for (const uint8_t byte : endpoint->participant_key.v) {
+    out.participant += kHex[byte >> 4];
+    out.participant += kHex[byte & 15];
   }
   dds_builtintopic_free_endpoint(endpoint);
   return out;

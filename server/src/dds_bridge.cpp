@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
+#include <optional>
+#include <type_traits>
 #include <vector>
 
 #include "locd/dds/convert.hpp"
@@ -195,21 +197,36 @@ enum Input : unsigned {
 // writer has one; a robot id that is not allowed is refused before anything is kept for it.
 // Samples from the robot's own partition mark the robot present on `input`; its instance losing
 // every writer marks it absent there (session ownership: Server::on_robot_writers).
+// `handle(robot_id, sample)`, or `handle(robot_id, sample, writer_participant)` where the writer's
+// participant matters (rate limits of session requests; only those pay for the copy).
 template <typename Wire, typename Handle>
 dds::Reader<Wire> robot_reader(const dds::Participant& participant, const char* topic, Input input,
                                dds::QosProfile profile, Server& server, RobotWriterPresence& presence, Handle&& handle,
                                int depth = 8) {
+  // The robot id allowed, and the robot marked present on `input`.
+  auto accept = [&server, &presence, topic, input](const Wire& sample) -> std::optional<std::string> {
+    std::string robot_id = dds::to_string(sample.robot_id);
+    if (std::string error = robot_id_error(robot_id); !error.empty()) {
+      server.on_invalid_robot_id(topic, error);
+      return std::nullopt;
+    }
+    if (const auto changed = presence.update(robot_id, input, true)) server.on_robot_writers(robot_id, *changed);
+    return robot_id;
+  };
+  auto callback = [&] {
+    if constexpr (std::is_invocable_v<Handle, const std::string&, const Wire&, const std::string&>) {
+      return typename dds::Reader<Wire>::SourcedCallback(
+          [accept, handle = std::forward<Handle>(handle)](const Wire& sample, const std::string& writer_participant) {
+            if (const auto robot_id = accept(sample)) handle(*robot_id, sample, writer_participant);
+          });
+    } else {
+      return typename dds::Reader<Wire>::Callback([accept, handle = std::forward<Handle>(handle)](const Wire& sample) {
+        if (const auto robot_id = accept(sample)) handle(*robot_id, sample);
+      });
+    }
+  };
   return dds::Reader<Wire>(
-      participant, topic, profile,
-      [&server, &presence, topic, input, handle = std::forward<Handle>(handle)](const Wire& sample) {
-        const std::string robot_id = dds::to_string(sample.robot_id);
-        if (std::string error = robot_id_error(robot_id); !error.empty()) {
-          server.on_invalid_robot_id(topic, error);
-          return;
-        }
-        if (const auto changed = presence.update(robot_id, input, true)) server.on_robot_writers(robot_id, *changed);
-        handle(robot_id, sample);
-      },
+      participant, topic, profile, callback(),
       depth, {topics::kAllRobotsPartition},
       [&server, topic](const Wire& sample, const dds::Partitions& writer_partitions) {
         std::string writer_robot;
@@ -266,9 +283,11 @@ void DdsBridge::connect(Server& server) {
   Logger* logger = &logger_;
   readers->session_request = robot_reader<locd_msg_SessionRequest>(
       participant_, topics::kSessionRequest, kSessionRequestInput, dds::QosProfile::kState, server, presence_,
-      [&server, logger](const std::string& robot_id, const locd_msg_SessionRequest& sample) {
+      [&server, logger](const std::string& robot_id, const locd_msg_SessionRequest& sample,
+                        const std::string& writer_participant) {
         SessionRequestMessage request;
         request.robot_id = robot_id;
+        request.source = writer_participant;
         request.request_id = sample.request_id;
         request.stop = sample.action == locd_msg_SESSION_STOP;
         request.plugin = dds::to_string(sample.plugin);

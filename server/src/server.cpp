@@ -12,6 +12,13 @@ namespace {
 
 constexpr auto kNoSessionReportPeriod = std::chrono::seconds(1);
 constexpr size_t kMaxUnservedRobots = 4096;  // bounds the memory a flood of robot ids can take
+
+// The limiter of writers' participants: session requests at the per-participant rate.
+RequestLimits per_participant(const RequestLimits& limits) {
+  RequestLimits l = limits;
+  l.rates[static_cast<size_t>(RequestKind::kSessionRequest)] = limits.session_requests_per_participant;
+  return l;
+}
 // Latest requests and other servers' resume states kept, whoever serves the robots.
 constexpr size_t kMaxRequestsKept = 200000;
 // Without news from the fleet, the rules are applied again this often.
@@ -78,6 +85,7 @@ Server::Server(ServerConfig config, const PluginIndex& catalog, OutputSink& sink
       environment_{workers_, pool_, sink_, static_cast<size_t>(config_.queue_depth), config_.failures,
                    configure_template(config_), nullptr},
       limiter_(config_.request_limits),
+      source_limiter_(per_participant(config_.request_limits)),
       state_file_(config_.state_directory), started_ns_(wall_clock_ns()), started_(std::chrono::steady_clock::now()),
       fleet_(ServerMember{config_.server_id, config_.weight, config_.server_group}),
       info_(make_info(config_, catalog_, started_ns_)) {
@@ -255,7 +263,7 @@ void Server::on_session_request(SessionRequestMessage request) {
   }
   const std::string robot_id = request.robot_id;
   if (!admit(robot_id, RequestKind::kSessionRequest, "session request " + std::to_string(request.request_id),
-             request.request_id)) {
+             request.request_id, request.source)) {
     return;
   }
   if (request.stop) {
@@ -645,31 +653,40 @@ void Server::on_invalid_robot_id(const std::string& topic, const std::string& er
   logger_.log(LogLevel::kWarning, "server", line);
 }
 
-bool Server::admit(const std::string& robot_id, RequestKind kind, const std::string& what, uint64_t request_id) {
-  if (limiter_.admit(robot_id, kind)) return true;
-  const RequestRate& rate = config_.request_limits.of(kind);
+bool Server::admit(const std::string& robot_id, RequestKind kind, const std::string& what, uint64_t request_id,
+                   const std::string& source) {
+  const bool robot_ok = limiter_.admit(robot_id, kind);
+  // A writer naming many robots: its session requests across all of them.
+  const bool source_ok = !robot_ok || kind != RequestKind::kSessionRequest || source.empty() ||
+                         source_limiter_.admit(source, RequestKind::kSessionRequest);
+  if (robot_ok && source_ok) return true;
   auto number = [](double v) {
     std::ostringstream out;
     out << v;
     return out.str();
   };
-  const std::string message = what + " of robot '" + robot_id + "' dropped: over the robot's limit of " +
-                              number(rate.per_s) + " a second (burst " + number(rate.burst) + "), " +
-                              request_limit_key(kind) + " in the server config";
-  std::string line;
+  const RequestRate& rate = robot_ok ? config_.request_limits.session_requests_per_participant
+                                     : config_.request_limits.of(kind);
+  const std::string limit = number(rate.per_s) + " a second (burst " + number(rate.burst) + ")";
+  const std::string message =
+      what + " of robot '" + robot_id + "' dropped: " +
+      (robot_ok ? "its writer's participant " + source + " is over its limit of " + limit +
+                      " across the robots it names, request_limits.session_requests_per_participant"
+                : "over the robot's limit of " + limit + ", " + request_limit_key(kind)) +
+      " in the server config";
   std::shared_ptr<Session> session;
   bool answer = false;  // a session request dropped is answered, at most once a second per robot
   {
     std::lock_guard<std::mutex> lock(mutex_);
     ++throttled_;
     if (auto it = sessions_.find(robot_id); it != sessions_.end()) session = it->second;
+    const auto now = std::chrono::steady_clock::now();
     if (kind == RequestKind::kSessionRequest) {
-      const auto now = std::chrono::steady_clock::now();
       if (throttle_answered_.size() >= kMaxUnservedRobots && !throttle_answered_.count(robot_id)) {
         throttle_answered_.clear();
       }
       auto [last, first] = throttle_answered_.try_emplace(robot_id, now);
-      if (first || now - last->second >= kNoSessionReportPeriod) {
+      if ((first || now - last->second >= kNoSessionReportPeriod) && throttle_answers_.take(now)) {
         last->second = now;
         const auto stored = requests_.find(robot_id);
         answer = session || fleet_.answers_for(robot_id, stored == requests_.end() ? "" : stored->second.group);
@@ -677,7 +694,7 @@ bool Server::admit(const std::string& robot_id, RequestKind kind, const std::str
     }
   }
   if (session) {
-    session->throttle(message);  // on its status, logged within the session's budget
+    session->throttle(message);  // on its status; the log has one line a second for every robot
     if (answer) {
       // The request's own answer, so the robot need not wait out its timeout; the session's
       // next status carries its last request handled again.
@@ -687,9 +704,10 @@ bool Server::admit(const std::string& robot_id, RequestKind kind, const std::str
       status.message = message;
       pool_.post([this, status] { sink_.publish_status(status); });
     }
-    return false;
+  } else if (answer) {
+    publish_refusal(robot_id, request_id, message);
   }
-  if (answer) publish_refusal(robot_id, request_id, message);
+  std::string line;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     const auto now = std::chrono::steady_clock::now();

@@ -90,17 +90,22 @@ constexpr double kMaxDeadlineS = 86400.0;
 constexpr long kMaxSessionsPerWorker = 100000;
 
 // sessions_per_worker: 'auto' (WorkerSettings::kAuto) or 1..kMaxSessionsPerWorker.
-// request_limits: {session_requests: {per_s, burst}, initial_poses: {...}, map_saves: {...}}.
+// request_limits: {session_requests: {per_s, burst}, initial_poses: {...}, map_saves: {...},
+// session_requests_per_participant: {...}}.
+void parse_rate(const Params& p, const std::string& key, RequestRate& r) {
+  const Params rate = p.child(key);
+  rate.expect_only({"per_s", "burst"});
+  r.per_s = rate.number("per_s", r.per_s, Range::closed(0.001, 1e6));
+  r.burst = static_cast<double>(rate.integer("burst", static_cast<long>(r.burst), 1, 1'000'000));
+}
+
 void parse_request_limits(const Params& p, RequestLimits& limits) {
-  p.expect_only({"session_requests", "initial_poses", "map_saves"});
+  p.expect_only({"session_requests", "initial_poses", "map_saves", "session_requests_per_participant"});
   for (size_t k = 0; k < kRequestKinds; ++k) {
     const std::string key = std::string(request_limit_key(static_cast<RequestKind>(k))).substr(sizeof "request_limits");
-    const Params rate = p.child(key);
-    rate.expect_only({"per_s", "burst"});
-    RequestRate& r = limits.rates[k];
-    r.per_s = rate.number("per_s", r.per_s, Range::closed(0.001, 1e6));
-    r.burst = static_cast<double>(rate.integer("burst", static_cast<long>(r.burst), 1, 1'000'000));
+    parse_rate(p, key, limits.rates[k]);
   }
+  parse_rate(p, "session_requests_per_participant", limits.session_requests_per_participant);
 }
 
 size_t sessions_per_worker(const Params& p) {

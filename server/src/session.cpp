@@ -172,7 +172,6 @@ void Session::throttle(const std::string& message) {
     ++counters_.throttled;
     last_error_ = message;
   }
-  log_rejection(message);
   publish_status_later();
 }
 

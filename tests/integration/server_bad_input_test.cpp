@@ -515,6 +515,51 @@ TEST(ServerBadInput, ARequestFloodIsCutToTheRobotsLimitAndAnotherRobotKeepsItsSe
             << " plugin starts, " << throttled.throttled << " throttled (on the status)\n";
 }
 
+// One participant naming many robots (here 10, with a budget of 3 across them): three start, the
+// others are answered naming the participant (its GUID, as discovery announced it) and the limit;
+// a robot of another participant starts as before.
+TEST(ServerBadInput, AParticipantNamingManyRobotsIsLimitedAcrossThemByItsGuid) {
+  LocdOverDds locd(207, "request_limits: {session_requests_per_participant: {per_s: 0.001, burst: 3}}\n");
+  locd::dds::Participant operator_side(207);
+  locd::dds::Partitions partitions;
+  for (int i = 0; i < 10; ++i) partitions.push_back(locd::topics::robot_partition("m_" + std::to_string(i)));
+  locd::dds::Writer<locd_msg_SessionRequest> requests(operator_side, locd::topics::kSessionRequest, QosProfile::kState,
+                                                      8, partitions);
+  const auto deadline = std::chrono::steady_clock::now() + kTimeout;
+  while (requests.matched() == 0 && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(10ms);
+  ASSERT_GT(requests.matched(), 0u) << locd.locd().output();
+  auto sample = std::make_unique<locd_msg_SessionRequest>();
+  std::memset(sample.get(), 0, sizeof(locd_msg_SessionRequest));
+  locd::dds::borrow_text(sample->config_yaml, kFixtureConfig, locd::topics::kMaxConfigYamlBytes);
+  sample->action = locd_msg_SESSION_START;
+  sample->request_id = 1;
+  for (int i = 0; i < 10; ++i) {
+    locd::dds::copy_string(sample->robot_id, "m_" + std::to_string(i));
+    requests.write(*sample);
+  }
+  int started = 0, refused = 0;
+  for (int i = 0; i < 10; ++i) {
+    const auto s = locd.wait_status("m_" + std::to_string(i), [](const Status& s) {
+      return s.request_id == 1 && s.state != "starting";
+    });
+    if (s.request_ok) {
+      ++started;
+      continue;
+    }
+    ++refused;
+    EXPECT_CONTAINS(s.message, "session request 1 of robot 'm_" + std::to_string(i) + "' dropped: its writer's participant ");
+    EXPECT_CONTAINS(s.message, " is over its limit of 0.001 a second (burst 3) across the robots it names, "
+                               "request_limits.session_requests_per_participant in the server config");
+    const size_t at = s.message.find("participant ") + 12;
+    const std::string guid = s.message.substr(at, s.message.find(' ', at) - at);
+    EXPECT_EQ(guid.size(), 32u) << guid;
+    EXPECT_EQ(guid.find_first_not_of("0123456789abcdef"), std::string::npos) << guid;
+  }
+  EXPECT_EQ(started, 3);
+  EXPECT_EQ(refused, 7);
+  EXPECT_TRUE(locd.request("own", 1, "", kFixtureConfig).request_ok);
+}
+
 // A robot id outside [A-Za-z0-9_.-]{1,64} is refused before anything is kept for it, and the log
 // line naming it is escaped: a newline in it cannot forge a line.
 TEST(ServerBadInput, RobotIdsOutsideTheAllowedCharactersAreRefusedAndEscapedInTheLog) {

@@ -123,6 +123,12 @@ TEST(ServerConfig, RequestLimitsPerKindWithTheirDefaults) {
   expect_error("request_limits: {map_saves: {burst: 0}}", {"'request_limits.map_saves.burst'", "allowed: [1, 1000000]"});
   expect_error("request_limits: {map_saves: {rate: 1}}", {"unknown parameter 'request_limits.map_saves.rate'", "per_s"});
   expect_error("request_limits: {poses: {}}", {"unknown parameter 'request_limits.poses'", "initial_poses"});
+  const auto p = ServerConfig::parse("request_limits: {session_requests_per_participant: {per_s: 50, burst: 500}}\n",
+                                     "t.yaml", kBase);
+  EXPECT_DOUBLE_EQ(p.request_limits.session_requests_per_participant.per_s, 50.0);
+  EXPECT_DOUBLE_EQ(p.request_limits.session_requests_per_participant.burst, 500.0);
+  EXPECT_DOUBLE_EQ(ServerConfig::parse("", "t.yaml", kBase).request_limits.session_requests_per_participant.burst,
+                   2000.0);
 }
 
 TEST(ServerConfig, UnknownKeysNameTheKeyWhereItStandsAndTheKnownOnes) {

@@ -28,8 +28,9 @@ class ServerRouterTest : public ::testing::Test {
   }
   ~ServerRouterTest() override { server_->shutdown(); }
 
-  SessionStatusReport request(const std::string& robot, uint64_t id, const std::string& plugin, const std::string& yaml) {
-    server_->on_session_request({robot, id, false, plugin, yaml});
+  SessionStatusReport request(const std::string& robot, uint64_t id, const std::string& plugin, const std::string& yaml,
+                              const std::string& source = "") {
+    server_->on_session_request({robot, id, false, plugin, yaml, source});
     auto status = sink_.wait_status(robot, [&](const SessionStatusReport& s) { return s.request_id == id; });
     EXPECT_TRUE(status.has_value()) << "no status for request " << id;
     return status.value_or(SessionStatusReport{});
@@ -249,6 +250,37 @@ TEST_F(ServerRouterTest, ARequestOverTheLimitIsAnsweredAsRefusedAndTheSessionRun
   ASSERT_TRUE(sink_.wait_status("eager", [id](const SessionStatusReport& s) {
     return s.request_id == id - 1 && s.state == SessionState::kRunning;
   }));
+}
+
+// One writer's participant naming many robots (an operator, or anyone in plain mode) gets its
+// own budget of session requests across them (here 1 a second, burst 5); a robot of another
+// participant is served as before.
+TEST_F(ServerRouterTest, AParticipantNamingManyRobotsIsLimitedAcrossThemAndOthersAreServed) {
+  server_->shutdown();
+  config_.request_limits.session_requests_per_participant = {1.0, 5.0};
+  server_ = std::make_unique<Server>(config_, catalog_, sink_, logger_);
+  const std::string config = "plugin: fixture_odometry\n";
+  constexpr int kRobots = 40;
+  const auto start = std::chrono::steady_clock::now();
+  std::string first_dropped;
+  for (int i = 0; i < kRobots; ++i) {
+    server_->on_session_request({"many_" + std::to_string(i), 1, false, "", config, "p1"});
+    if (first_dropped.empty() && server_->requests_throttled() == 1) first_dropped = "many_" + std::to_string(i);
+  }
+  const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_LE(server_->requests_throttled(), kRobots - 5u);
+  EXPECT_GE(static_cast<double>(server_->requests_throttled()), kRobots - 5 - 1 - elapsed_s);
+  // The first dropped one is answered, naming the participant's limit.
+  const auto answer = sink_.wait_status(first_dropped, [](const SessionStatusReport& s) { return !s.request_ok; });
+  ASSERT_TRUE(answer.has_value());
+  EXPECT_EQ(answer->request_id, 1u);
+  EXPECT_NE(answer->message.find("session request 1 of robot '" + first_dropped +
+                                 "' dropped: its writer's participant p1 is over its "
+                                 "limit of 1 a second (burst 5) across the robots it names, "
+                                 "request_limits.session_requests_per_participant in the server config"),
+            std::string::npos)
+      << answer->message;
+  EXPECT_TRUE(request("own", 1, "", config, "p2").request_ok);
 }
 
 }  // namespace

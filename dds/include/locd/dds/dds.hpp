@@ -121,8 +121,13 @@ using Partitions = std::vector<std::string>;
 Entity publisher_for(const Participant& p, const Partitions& partitions);
 Entity subscriber_for(const Participant& p, const Partitions& partitions);
 
-// The partitions of the writer of a received sample, as discovery announced them.
-Partitions writer_partitions(dds_entity_t reader, dds_instance_handle_t publication);
+// The writer of a received sample, as discovery announced it: its partitions, and its
+// participant's GUID in hex (with DDS Security, an authenticated identity's participant).
+struct WriterInfo {
+  Partitions partitions;
+  std::string participant;
+};
+WriterInfo writer_info(dds_entity_t reader, dds_instance_handle_t publication);
 
 // "topic in partition(s) [a, b]", for error messages.
 std::string endpoint_text(const std::string& topic, const Partitions& partitions);
@@ -211,28 +216,18 @@ class Reader {
   using Callback = std::function<void(const T&)>;
   using ForeignCallback = std::function<void(const T&, const Partitions& writer_partitions)>;
   using GoneCallback = std::function<void(const T& key, InstanceGone why)>;
+  // With robot scope, a callback may also take the writer's participant (WriterInfo::participant).
+  using SourcedCallback = std::function<void(const T&, const std::string& writer_participant)>;
   Reader() = default;
   Reader(const Participant& p, const std::string& topic, QosProfile profile, Callback callback, int depth = 8,
          const Partitions& partitions = {}, ForeignCallback on_foreign = nullptr, GoneCallback on_writers_gone = nullptr)
-      : state_(std::make_unique<State>()) {
-    state_->callback = std::move(callback);
-    state_->on_foreign = std::move(on_foreign);
-    state_->on_writers_gone = std::move(on_writers_gone);
-    state_->topic = Entity(create_topic(p, descriptor<T>(), topic));
-    auto qos = make_qos(profile, depth);
-    dds_listener_t* listener = nullptr;
-    if (state_->callback) {
-      listener = dds_create_listener(state_.get());
-      dds_lset_data_available(listener, &Reader::on_data_available);
-      if (state_->follows_own_writers()) dds_lset_subscription_matched(listener, &Reader::on_subscription_matched);
-    }
-    state_->subscriber = subscriber_for(p, partitions);
-    const dds_entity_t parent = state_->subscriber.handle() ? state_->subscriber.handle() : p.handle();
-    const dds_entity_t r = dds_create_reader(parent, state_->topic.handle(), qos.get(), listener);
-    if (listener) dds_delete_listener(listener);
-    state_->entity = Entity(check(r, ("create reader on " + endpoint_text(topic, partitions)).c_str()));
-    topic_ = topic;
-  }
+      : Reader(p, topic, profile, std::move(callback), nullptr, depth, partitions, std::move(on_foreign),
+               std::move(on_writers_gone)) {}
+  // Robot scope (`on_foreign` set), with the writer's participant for each sample.
+  Reader(const Participant& p, const std::string& topic, QosProfile profile, SourcedCallback callback, int depth,
+         const Partitions& partitions, ForeignCallback on_foreign, GoneCallback on_writers_gone = nullptr)
+      : Reader(p, topic, profile, nullptr, std::move(callback), depth, partitions, std::move(on_foreign),
+               std::move(on_writers_gone)) {}
   ~Reader() {
     // Stop the listener before the state it points to goes away.
     if (state_) state_->entity.reset();
@@ -267,16 +262,41 @@ class Reader {
   dds_entity_t handle() const { return state_ ? state_->entity.handle() : 0; }
 
  private:
+  Reader(const Participant& p, const std::string& topic, QosProfile profile, Callback callback,
+         SourcedCallback sourced, int depth, const Partitions& partitions, ForeignCallback on_foreign,
+         GoneCallback on_writers_gone)
+      : state_(std::make_unique<State>()) {
+    state_->callback = std::move(callback);
+    state_->sourced = std::move(sourced);
+    state_->on_foreign = std::move(on_foreign);
+    state_->on_writers_gone = std::move(on_writers_gone);
+    state_->topic = Entity(create_topic(p, descriptor<T>(), topic));
+    auto qos = make_qos(profile, depth);
+    dds_listener_t* listener = nullptr;
+    if (state_->callback || state_->sourced) {
+      listener = dds_create_listener(state_.get());
+      dds_lset_data_available(listener, &Reader::on_data_available);
+      if (state_->follows_own_writers()) dds_lset_subscription_matched(listener, &Reader::on_subscription_matched);
+    }
+    state_->subscriber = subscriber_for(p, partitions);
+    const dds_entity_t parent = state_->subscriber.handle() ? state_->subscriber.handle() : p.handle();
+    const dds_entity_t r = dds_create_reader(parent, state_->topic.handle(), qos.get(), listener);
+    if (listener) dds_delete_listener(listener);
+    state_->entity = Entity(check(r, ("create reader on " + endpoint_text(topic, partitions)).c_str()));
+    topic_ = topic;
+  }
+
   struct State {
     Callback callback;
+    SourcedCallback sourced;
     ForeignCallback on_foreign;
     GoneCallback on_writers_gone;
     Entity topic;       // declared before the reader: deleted after it
     Entity subscriber;  // likewise
     Entity entity;
-    // Robot scope: the partitions of each writer seen, by publication handle (bounded).
+    // Robot scope: each writer seen, by publication handle (bounded).
     std::mutex writers_mutex;
-    std::unordered_map<dds_instance_handle_t, Partitions> writers;
+    std::unordered_map<dds_instance_handle_t, WriterInfo> writers;
     // Robot scope with on_writers_gone: the writers whose samples were accepted, per robot id
     // (bounded: beyond, a robot is reported by its instance only).
     static constexpr size_t kMaxRobotsFollowed = 16384, kMaxWritersPerRobot = 64;
@@ -319,20 +339,22 @@ class Reader {
     }
 
     template <typename Sample>
+    // Whether the sample's writer publishes in its robot's partition. If not, `partitions` gets
+    // the writer's; `participant` (if given) gets its participant.
     bool from_own_partition(dds_entity_t reader, const Sample& sample, const dds_sample_info_t& info,
-                            Partitions& partitions) {
+                            Partitions& partitions, std::string* participant = nullptr) {
       constexpr size_t kMaxWritersRemembered = 16384;
       std::lock_guard<std::mutex> lock(writers_mutex);
       auto it = writers.find(info.publication_handle);
       if (it == writers.end()) {
         if (writers.size() >= kMaxWritersRemembered) writers.clear();
-        it = writers.emplace(info.publication_handle, writer_partitions(reader, info.publication_handle)).first;
+        it = writers.emplace(info.publication_handle, writer_info(reader, info.publication_handle)).first;
       }
+      const WriterInfo& writer = it->second;
+      if (participant) *participant = writer.participant;
       const std::string own = topics::kRobotPartitionPrefix + std::string(sample.robot_id);
-      for (const auto& partition : it->second) {
-        if (partition == own) return true;
-      }
-      partitions = it->second;
+      if (std::find(writer.partitions.begin(), writer.partitions.end(), own) != writer.partitions.end()) return true;
+      partitions = writer.partitions;
       return false;
     }
   };
@@ -358,15 +380,17 @@ class Reader {
     take_each(reader, [&](const T& s, const dds_sample_info_t& info) {
       if (info.valid_data) {
         bool own = true;
+        std::string participant;
         if constexpr (HasRobotId<T>::value) {
           if (state->on_foreign) {
             Partitions partitions;
-            own = state->from_own_partition(reader, s, info, partitions);
+            own = state->from_own_partition(reader, s, info, partitions, state->sourced ? &participant : nullptr);
             if (!own) state->on_foreign(s, partitions);
             if (own && state->on_writers_gone) state->note_own_writer(std::string(s.robot_id), info.publication_handle);
           }
         }
-        if (own) state->callback(s);
+        if (own && state->callback) state->callback(s);
+        if (own && state->sourced) state->sourced(s, participant);
       }
       // An instance state change travels alone (valid_data false) or on the last sample taken.
       if (state->on_writers_gone && info.instance_state != DDS_IST_ALIVE) report_gone(reader, *state, s, info);

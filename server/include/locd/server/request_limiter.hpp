@@ -27,6 +27,9 @@ struct RequestRate {
 
 struct RequestLimits {
   std::array<RequestRate, kRequestKinds> rates{{{1.0, 10.0}, {5.0, 10.0}, {1.0, 5.0}}};
+  // Session requests of one writer's participant across every robot it names (an operator, a
+  // fleet generator, or in plain mode anyone naming many robots): the burst lets a fleet start.
+  RequestRate session_requests_per_participant{20.0, 2000.0};
   const RequestRate& of(RequestKind kind) const { return rates[static_cast<size_t>(kind)]; }
 };
 

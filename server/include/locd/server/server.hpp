@@ -31,6 +31,9 @@ struct SessionRequestMessage {
   bool stop = false;
   std::string plugin;  // may be empty: the config's `plugin` is used
   std::string config_yaml;
+  // Who wrote it: the writer's DDS participant (hex GUID; with DDS Security an authenticated
+  // identity's), for its rate limit across the robots it names. Empty: not known (boot, tests).
+  std::string source;
 };
 
 class Server {
@@ -127,7 +130,9 @@ class Server {
   // The robot's rate limit (request_limits): true when `what` may be acted on; otherwise it is
   // counted as throttled on the robot's status (if it has a session here) and in the log, and a
   // session request (`request_id`) is answered as refused, at most once a second per robot.
-  bool admit(const std::string& robot_id, RequestKind kind, const std::string& what, uint64_t request_id = 0);
+  // `source`: the writer's participant, whose session requests are limited across the robots it names.
+  bool admit(const std::string& robot_id, RequestKind kind, const std::string& what, uint64_t request_id = 0,
+             const std::string& source = "");
 
   ServerConfig config_;
   const PluginIndex& catalog_;
@@ -137,7 +142,8 @@ class Server {
   WorkerPool pool_;
   PluginWorkers workers_;
   SessionEnvironment environment_;
-  RequestLimiter limiter_;
+  RequestLimiter limiter_;         // per robot
+  RequestLimiter source_limiter_;  // per writer participant (session requests)
   StateFile state_file_;
   int64_t started_ns_;
   std::chrono::steady_clock::time_point started_;
@@ -158,6 +164,22 @@ class Server {
   uint64_t throttled_not_logged_ = 0;         // of those, of robots without a session here
   std::chrono::steady_clock::time_point last_throttle_log_{};
   std::map<std::string, std::chrono::steady_clock::time_point> throttle_answered_;  // robot -> last answer
+  // Answers to dropped session requests, every robot together: at most `limit` a second.
+  struct Window {
+    std::chrono::steady_clock::time_point start{};
+    size_t used = 0;
+    size_t limit = 20;
+    bool take(std::chrono::steady_clock::time_point now) {
+      if (now - start >= std::chrono::seconds(1)) {
+        start = now;
+        used = 0;
+      }
+      if (used >= limit) return false;
+      ++used;
+      return true;
+    }
+  };
+  Window throttle_answers_;
   std::map<std::string, ResumeState> saved_;  // the last run's states, given to sessions as they start
   // The latest start request of every robot (served here or elsewhere), and which one this
   // server acted on; the fleet's view; the other servers' resume states.

@@ -73,8 +73,8 @@ class Session : public InstanceOwner, public std::enable_shared_from_this<Sessio
   bool push(Measurement measurement);
   // A message the bridge could not convert: counted as received and rejected.
   void reject_input(const std::string& error);
-  // A request, initial pose or map save dropped over the robot's rate limit: counted as
-  // throttled (not as received), the status's last_error and the log.
+  // A request, initial pose or map save dropped over a rate limit: counted as throttled (not as
+  // received) and the status's last_error. (The server logs them, once a second for all robots.)
   void throttle(const std::string& message);
   // A problem with the robot's outputs that is no rejected input (the ROS 2 bridge withholding
   // map -> odom): the status's last_error and the log.
