@@ -19,6 +19,7 @@ RequestLimits per_participant(const RequestLimits& limits) {
   l.rates[static_cast<size_t>(RequestKind::kSessionRequest)] = limits.session_requests_per_participant;
   return l;
 }
+
 // Latest requests and other servers' resume states kept, whoever serves the robots.
 constexpr size_t kMaxRequestsKept = 200000;
 // Without news from the fleet, the rules are applied again this often.
@@ -675,7 +676,7 @@ bool Server::admit(const std::string& robot_id, RequestKind kind, const std::str
                 : "over the robot's limit of " + limit + ", " + request_limit_key(kind)) +
       " in the server config";
   std::shared_ptr<Session> session;
-  bool answer = false;  // a session request dropped is answered, at most once a second per robot
+  bool answer = false;  // a session request dropped is answered: once a second per robot, 20 in all
   {
     std::lock_guard<std::mutex> lock(mutex_);
     ++throttled_;

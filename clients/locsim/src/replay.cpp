@@ -240,6 +240,7 @@ class DdsTarget : public Target {
     client_.on_status([this](const SessionStatus& s) {
       std::lock_guard<std::mutex> lock(mutex_);
       statuses_[s.robot_id].push_back(s);
+      latest_received_[s.robot_id] = s.received;
       changed_.notify_all();
     });
   }
@@ -256,8 +257,12 @@ class DdsTarget : public Target {
       }
       w.matched = true;
     }
+    uint64_t received_before = 0;  // what the session had received before this write
     {
       std::lock_guard<std::mutex> lock(mutex_);
+      if (const auto latest = latest_received_.find(robot); latest != latest_received_.end()) {
+        received_before = latest->second;
+      }
       statuses_[robot].clear();  // the answer must come after this write
     }
     dds::check(dds_write(w.writer.handle(), sample), (std::string("write ") + topic.topic).c_str());
@@ -274,9 +279,11 @@ class DdsTarget : public Target {
     }
     if (name == topics::kInitialPose) {
       const int64_t stamp = static_cast<const locd_msg_InitialPose*>(sample)->header.stamp_ns;
+      // Held once the session has received it: a session that runs on from an earlier replay of
+      // the same file holds an initial pose of this very stamp already.
       return await(robot, "the server to hold the initial pose", [&](const SessionStatus& s) {
-        return s.initial_pose_stamp_ns == stamp || s.last_error.rfind("initial pose rejected", 0) == 0 ||
-               s.state == "no_session";
+        return (s.initial_pose_stamp_ns == stamp && s.received > received_before) ||
+               s.last_error.rfind("initial pose rejected", 0) == 0 || s.state == "no_session";
       });
     }
     return true;
@@ -359,6 +366,7 @@ class DdsTarget : public Target {
   std::mutex mutex_;
   std::condition_variable changed_;
   std::map<std::string, std::vector<SessionStatus>> statuses_;
+  std::map<std::string, uint64_t> latest_received_;  // by robot, from its latest status
   PoseTrack poses_;
 };
 

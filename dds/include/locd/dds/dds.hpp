@@ -338,9 +338,9 @@ class Reader {
       return gone;
     }
 
-    template <typename Sample>
     // Whether the sample's writer publishes in its robot's partition. If not, `partitions` gets
     // the writer's; `participant` (if given) gets its participant.
+    template <typename Sample>
     bool from_own_partition(dds_entity_t reader, const Sample& sample, const dds_sample_info_t& info,
                             Partitions& partitions, std::string* participant = nullptr) {
       constexpr size_t kMaxWritersRemembered = 16384;

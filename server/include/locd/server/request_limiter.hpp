@@ -2,7 +2,8 @@
 // map saves (config key request_limits). Each robot has a token bucket per kind: `burst` requests
 // at once, then `per_s` a second. A request over its robot's limit is dropped before it is parsed
 // or acted on, and counted. With DDS Security a robot's identity may write only in its own
-// partition, so the limit per robot is the limit per identity.
+// partition, so the limit per robot is the limit per identity. The server keeps a second limiter
+// keyed by the writer's participant, for the session requests of a writer naming many robots.
 #pragma once
 
 #include <array>

@@ -160,8 +160,8 @@ class Server {
   uint64_t refused_robot_ids_ = 0;
   uint64_t refused_robot_ids_not_logged_ = 0;
   std::chrono::steady_clock::time_point last_refusal_log_{};
-  uint64_t throttled_ = 0;                    // requests over their robot's limit, every robot
-  uint64_t throttled_not_logged_ = 0;         // of those, of robots without a session here
+  uint64_t throttled_ = 0;                    // requests over a limit (the robot's or its writer's), every robot
+  uint64_t throttled_not_logged_ = 0;         // of those, since the last line logged (one a second)
   std::chrono::steady_clock::time_point last_throttle_log_{};
   std::map<std::string, std::chrono::steady_clock::time_point> throttle_answered_;  // robot -> last answer
   // Answers to dropped session requests, every robot together: at most `limit` a second.
