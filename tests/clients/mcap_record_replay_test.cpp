@@ -80,6 +80,8 @@ TEST(McapRecordReplay, LiveRunIsRecordedReadByNpmAndReplayedOfflineExactly) {
   recorder.signal(SIGINT);
   ASSERT_EQ(recorder.wait(30s), 0) << recorder.output();
   EXPECT_NE(recorder.output().find("\"ok\":true"), std::string::npos) << recorder.output();
+  // Every robot's poses are in it: readable by its owner only (0600), whatever the umask.
+  EXPECT_EQ(fs::status(file).permissions() & fs::perms::all, fs::perms::owner_read | fs::perms::owner_write);
 
   // Every locd topic the run used, sensors and outputs, in a complete file.
   locd::mcap::ReadSummary summary;
