@@ -462,6 +462,116 @@ RegistrationResult register_coarse_to_fine(const ScanPoints& scan, const VoxelMa
   return result;
 }
 
+namespace {
+
+// One Gauss-Newton step in the local frame z = N xi: on the well-constrained directions (the last
+// 6 - degenerate eigenvectors); with hold_to_prior the poorly constrained ones return to the prior.
+Vector6d solve_step(const Pass& pass, const LocalSystem& local, const Eigen::Isometry3d& T,
+                    const Eigen::Isometry3d& T_initial, const DegeneracySettings& degeneracy) {
+  const Matrix6d H_local = local.M.transpose() * pass.H * local.M;
+  const Vector6d g_local = local.M.transpose() * pass.g;
+  if (!degeneracy.hold_to_prior || local.degenerate == 0) return -H_local.ldlt().solve(g_local);
+  const int constrained = 6 - local.degenerate;
+  const Eigen::MatrixXd U = local.U.rightCols(constrained);
+  const Eigen::MatrixXd D = local.U.leftCols(local.degenerate);
+  const Vector6d to_prior = local.N * se3_log(T_initial * T.inverse());
+  Vector6d z = D * (D.transpose() * to_prior);
+  if (constrained > 0) z -= U * (U.transpose() * H_local * U).ldlt().solve(U.transpose() * g_local);
+  return z;
+}
+
+// The fit at the final pose: correspondences, rejections, inliers and their residuals.
+void fill_fit(const Pass& final_pass, RegistrationResult& result) {
+  result.correspondences = final_pass.correspondences;
+  result.counts = final_pass.counts;
+  result.beyond_distance = final_pass.beyond_distance;
+  result.back_facing = final_pass.back_facing;
+  // The share over structure (walls, furniture); with fewer than kMinStructurePoints of it
+  // overlapping, over that minimum (a scan whose horizontal fit rests on a handful of points does
+  // not fit).
+  result.within_reach = std::max(final_pass.structure_within_reach, kMinStructurePoints);
+  result.rms_error = final_pass.weight_sum > 0.0 ? std::sqrt(final_pass.squared_error / final_pass.weight_sum) : 0.0;
+  result.inliers = final_pass.inliers;
+  const size_t share_inliers = final_pass.structure_inliers;
+  result.inlier_share =
+      result.within_reach > 0 ? static_cast<double>(share_inliers) / static_cast<double>(result.within_reach) : 0.0;
+  result.inlier_rms =
+      final_pass.inliers > 0 ? std::sqrt(final_pass.inlier_squared_error / static_cast<double>(final_pass.inliers)) : 0.0;
+}
+
+// Information, degeneracy and covariance at the final pose T: sigma^2 (J^T W J)^-1 over the
+// constrained directions, part of the prior's variance kept on the barely constrained ones, and,
+// when the iterates had not settled, their spread.
+void fill_covariance(const Pass& final_pass, const LocalSystem& local, IcpStop stop,
+                     const std::vector<Eigen::Isometry3d>& recent, const Eigen::Isometry3d& T,
+                     const DegeneracySettings& degeneracy, RegistrationResult& result) {
+  // The residual variance of the pairs in the information (kernel-weighted).
+  const double sigma2 = std::max(final_pass.information_squared_error / final_pass.information_weight, 1e-8);
+  Matrix6d inverse_local = Matrix6d::Zero(), degenerate_local = Matrix6d::Zero(), prior_local = Matrix6d::Zero();
+  for (int i = 0; i < 6; ++i) {
+    const Vector6d u = local.U.col(i);
+    if (i >= local.degenerate) {
+      inverse_local += u * u.transpose() / local.lambda(i);
+      // Barely constrained (share below confident_constraint_share): the data moved the pose,
+      // but the prior's variance is kept in part, falling linearly from all of it at
+      // min_constraint_share to none at confident_constraint_share.
+      const double low = degeneracy.min_constraint_share;
+      const double high = std::max(degeneracy.confident_constraint_share, low);
+      const double share = local.shares(local.order_index(i));
+      if (share < high && high > low) prior_local += std::sqrt((high - share) / (high - low)) * u * u.transpose();
+    } else {
+      degenerate_local += u * u.transpose();
+      prior_local += u * u.transpose();
+    }
+  }
+  result.constraint_shares = local.shares;
+  result.directions = local.eigen.eigenvectors();
+  result.degenerate_directions = local.degenerate;
+  result.local_to_xi = local.M;
+  result.constrained_inverse = local.M * inverse_local * local.M.transpose();
+  result.covariance = sigma2 * result.constrained_inverse;
+  if (stop != IcpStop::kConverged) {
+    // Not settled: the pose is no better known than the spread of the last iterates.
+    Matrix6d spread = Matrix6d::Zero();
+    for (const Eigen::Isometry3d& Ti : recent) {
+      const Vector6d d = se3_log(Ti * T.inverse());
+      spread += d * d.transpose();
+    }
+    if (!recent.empty()) result.covariance += spread / static_cast<double>(recent.size());
+  }
+  result.degenerate_projector = local.M * degenerate_local * local.N;
+  result.prior_projector = local.M * prior_local * local.N;
+}
+
+// Trust: whether the registration fits, and the verdict saying why or why not.
+void judge(IcpStop stop, int iterations, const IcpSettings& settings, RegistrationResult& result) {
+  const TrustSettings& trust = settings.trust;
+  result.fits = result.inlier_share >= trust.min_inlier_share && result.inlier_rms <= trust.max_rms_error;
+  char text[200];
+  if (stop != IcpStop::kConverged) {
+    std::snprintf(text, sizeof text, "not converged (%s after %d iterations)", icp_stop_name(stop), iterations);
+  } else if (result.inlier_share < trust.min_inlier_share) {
+    std::snprintf(text, sizeof text, "inlier share %.0f %% < %.0f %% (residual within %.2f m)",
+                  100.0 * result.inlier_share, 100.0 * trust.min_inlier_share, trust.inlier_distance);
+  } else if (result.inlier_rms > trust.max_rms_error) {
+    std::snprintf(text, sizeof text, "inlier RMS residual %.3f m > %.3f m", result.inlier_rms, trust.max_rms_error);
+  } else if (result.degenerate_directions > trust.max_degenerate_directions) {
+    std::snprintf(text, sizeof text, "%d poorly constrained directions > %d", result.degenerate_directions,
+                  trust.max_degenerate_directions);
+  } else {
+    result.converged = true;
+    std::snprintf(text, sizeof text, "converged: inliers %.0f %%, RMS %.3f m, %d poorly constrained direction(s)%s",
+                  100.0 * result.inlier_share, result.inlier_rms, result.degenerate_directions,
+                  result.degenerate_directions > 0 && settings.degeneracy.hold_to_prior ? " held to odometry" : "");
+  }
+  result.verdict = text;
+}
+
+}  // namespace
+
+// The registration loop: a pass of correspondences at the current kernel scale, a step solved in
+// the local frame with the poorly constrained directions held, the kernel shrunk once the pose has
+// settled at its scale; then the fit, the covariance and the verdict at the final pose.
 RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, const Eigen::Isometry3d& T_start,
                                  const Eigen::Isometry3d& T_initial, const CorrespondenceRejector& rejector,
                                  const IcpSettings& settings) {
@@ -494,21 +604,7 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
       break;
     }
     const LocalSystem local = local_system(pass, T * scanner_in_base, scale_at(T), settings.degeneracy);
-    const Matrix6d H_local = local.M.transpose() * pass.H * local.M;
-    const Vector6d g_local = local.M.transpose() * pass.g;
-    Vector6d z;
-    if (settings.degeneracy.hold_to_prior && local.degenerate > 0) {
-      // Gauss-Newton on the well-constrained directions (the last 6 - degenerate eigenvectors);
-      // the poorly constrained ones return to the prior.
-      const int constrained = 6 - local.degenerate;
-      const Eigen::MatrixXd U = local.U.rightCols(constrained);
-      const Eigen::MatrixXd D = local.U.leftCols(local.degenerate);
-      const Vector6d to_prior = local.N * se3_log(T_initial * T.inverse());
-      z = D * (D.transpose() * to_prior);
-      if (constrained > 0) z -= U * (U.transpose() * H_local * U).ldlt().solve(U.transpose() * g_local);
-    } else {
-      z = -H_local.ldlt().solve(g_local);
-    }
+    const Vector6d z = solve_step(pass, local, T, T_initial, settings.degeneracy);
     if (!z.allFinite()) {
       stop = IcpStop::kSolverFailed;
       break;
@@ -535,92 +631,21 @@ RegistrationResult register_scan(const ScanPoints& scan, const VoxelMap& model, 
   result.T_map_base = T;
   result.iterations = iteration;
   result.stop = stop;
-
-  // The result at the final pose: correspondences, inliers, information, degeneracy, covariance.
   result.kernel_scale = kernel;
+
   Pass final_pass = registration.run_pass(T, kernel, 1, true);
-  result.correspondences = final_pass.correspondences;
-  result.counts = final_pass.counts;
-  result.beyond_distance = final_pass.beyond_distance;
-  result.back_facing = final_pass.back_facing;
-  // The share over structure (walls, furniture); with fewer than kMinStructurePoints of it
-  // overlapping, over that minimum (a scan whose horizontal fit rests on a handful of points does
-  // not fit).
-  result.within_reach = std::max(final_pass.structure_within_reach, kMinStructurePoints);
-  result.rms_error = final_pass.weight_sum > 0.0 ? std::sqrt(final_pass.squared_error / final_pass.weight_sum) : 0.0;
-  result.inliers = final_pass.inliers;
-  const size_t share_inliers = final_pass.structure_inliers;
-  result.inlier_share =
-      result.within_reach > 0 ? static_cast<double>(share_inliers) / static_cast<double>(result.within_reach) : 0.0;
-  result.inlier_rms =
-      final_pass.inliers > 0 ? std::sqrt(final_pass.inlier_squared_error / static_cast<double>(final_pass.inliers)) : 0.0;
+  fill_fit(final_pass, result);
   result.information = final_pass.information;
   result.information_by_insert = std::move(final_pass.by_insert);
   if (final_pass.information_weight > 0.0) {
     const LocalSystem local = local_system(final_pass, T * scanner_in_base, scale_at(T), settings.degeneracy);
-    // The residual variance of the pairs in the information (kernel-weighted).
-    const double sigma2 = std::max(final_pass.information_squared_error / final_pass.information_weight, 1e-8);
-    Matrix6d inverse_local = Matrix6d::Zero(), degenerate_local = Matrix6d::Zero(), prior_local = Matrix6d::Zero();
-    for (int i = 0; i < 6; ++i) {
-      const Vector6d u = local.U.col(i);
-      if (i >= local.degenerate) {
-        inverse_local += u * u.transpose() / local.lambda(i);
-        // Barely constrained (share below confident_constraint_share): the data moved the pose,
-        // but the prior's variance is kept in part, falling linearly from all of it at
-        // min_constraint_share to none at confident_constraint_share.
-        const double low = settings.degeneracy.min_constraint_share;
-        const double high = std::max(settings.degeneracy.confident_constraint_share, low);
-        const double share = local.shares(local.order_index(i));
-        if (share < high && high > low) prior_local += std::sqrt((high - share) / (high - low)) * u * u.transpose();
-      } else {
-        degenerate_local += u * u.transpose();
-        prior_local += u * u.transpose();
-      }
-    }
-    result.constraint_shares = local.shares;
-    result.directions = local.eigen.eigenvectors();
-    result.degenerate_directions = local.degenerate;
-    result.local_to_xi = local.M;
-    result.constrained_inverse = local.M * inverse_local * local.M.transpose();
-    result.covariance = sigma2 * result.constrained_inverse;
-    if (stop != IcpStop::kConverged) {
-      // Not settled: the pose is no better known than the spread of the last iterates.
-      Matrix6d spread = Matrix6d::Zero();
-      for (const Eigen::Isometry3d& Ti : recent) {
-        const Vector6d d = se3_log(Ti * T.inverse());
-        spread += d * d.transpose();
-      }
-      if (!recent.empty()) result.covariance += spread / static_cast<double>(recent.size());
-    }
-    result.degenerate_projector = local.M * degenerate_local * local.N;
-    result.prior_projector = local.M * prior_local * local.N;
+    fill_covariance(final_pass, local, stop, recent, T, settings.degeneracy, result);
   } else {
     result.degenerate_directions = 6;
     result.degenerate_projector = Matrix6d::Identity();
     result.prior_projector = Matrix6d::Identity();
   }
-
-  // Trust.
-  const TrustSettings& trust = settings.trust;
-  result.fits = result.inlier_share >= trust.min_inlier_share && result.inlier_rms <= trust.max_rms_error;
-  char text[200];
-  if (stop != IcpStop::kConverged) {
-    std::snprintf(text, sizeof text, "not converged (%s after %d iterations)", icp_stop_name(stop), iteration);
-  } else if (result.inlier_share < trust.min_inlier_share) {
-    std::snprintf(text, sizeof text, "inlier share %.0f %% < %.0f %% (residual within %.2f m)",
-                  100.0 * result.inlier_share, 100.0 * trust.min_inlier_share, trust.inlier_distance);
-  } else if (result.inlier_rms > trust.max_rms_error) {
-    std::snprintf(text, sizeof text, "inlier RMS residual %.3f m > %.3f m", result.inlier_rms, trust.max_rms_error);
-  } else if (result.degenerate_directions > trust.max_degenerate_directions) {
-    std::snprintf(text, sizeof text, "%d poorly constrained directions > %d", result.degenerate_directions,
-                  trust.max_degenerate_directions);
-  } else {
-    result.converged = true;
-    std::snprintf(text, sizeof text, "converged: inliers %.0f %%, RMS %.3f m, %d poorly constrained direction(s)%s",
-                  100.0 * result.inlier_share, result.inlier_rms, result.degenerate_directions,
-                  result.degenerate_directions > 0 && settings.degeneracy.hold_to_prior ? " held to odometry" : "");
-  }
-  result.verdict = text;
+  judge(stop, iteration, settings, result);
   return result;
 }
 
