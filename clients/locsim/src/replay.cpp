@@ -631,6 +631,59 @@ int run_bag_replay(const ReplayOptions& options) {
 
 }  // namespace
 
+namespace {
+
+// Stamp by stamp: the poses the replay produced against the poses recorded, per robot;
+// `every_robot_posed` says whether each robot replayed got at least one pose.
+Json compare_with_recording(Target& target, const PoseTrack& recorded, bool& every_robot_posed) {
+  const PoseTrack replayed_poses = target.poses();
+  Json robots = Json::array();
+  every_robot_posed = !target.robots.empty();
+  for (const auto& [robot, report] : target.robots) {
+    const auto& mine = replayed_poses.count(robot) ? replayed_poses.at(robot) : std::map<int64_t, Eigen::Isometry3d>{};
+    const auto& theirs = recorded.count(robot) ? recorded.at(robot) : std::map<int64_t, Eigen::Isometry3d>{};
+    size_t matched = 0, identical = 0;  // identical: within 1e-9 m and 1e-9 rad
+    double max_position = 0.0, sum_position = 0.0, max_yaw = 0.0;
+    for (const auto& [stamp, pose] : mine) {
+      const auto r = theirs.find(stamp);
+      if (r == theirs.end()) continue;
+      ++matched;
+      const double d = (pose.translation() - r->second.translation()).norm();
+      const double dyaw = std::abs(std::remainder(yaw_of(pose) - yaw_of(r->second), 2.0 * M_PI));
+      max_position = std::max(max_position, d);
+      sum_position += d;
+      max_yaw = std::max(max_yaw, dyaw);
+      if (d <= 1e-9 && dyaw <= 1e-9) ++identical;
+    }
+    if (mine.empty()) every_robot_posed = false;
+    robots.push_back({{"robot", robot}, {"plugin", report.plugin}, {"fed", report.fed}, {"rejected", report.rejected},
+                      {"no_session", report.no_session}, {"last_error", report.last_error},
+                      {"poses", mine.size()}, {"recorded_poses", theirs.size()}, {"matched", matched}, {"identical", identical},
+                      {"max_position_diff_m", max_position},
+                      {"mean_position_diff_m", matched ? sum_position / static_cast<double>(matched) : 0.0},
+                      {"max_yaw_diff_rad", max_yaw}});
+  }
+  return robots;
+}
+
+// The replay's report (what --json prints) as text.
+void print_replay(const Json& out, std::ostream& log) {
+  const double input_s = out["replayed_span_s"], wall_s = out["wall_s"];
+  log << "replayed " << out["replayed"] << " of " << out["messages"] << " messages (" << input_s << " s of the "
+      << out["recorded_span_s"].get<double>() << " s recorded) in " << wall_s << " s ("
+      << (wall_s > 0 ? input_s / wall_s : 0.0) << "x real time), "
+      << (out["mode"] == "offline" ? "offline" : "into locd") << "\n";
+  for (const auto& r : out["robots"]) {
+    log << "  " << r["robot"].get<std::string>() << " (" << r["plugin"].get<std::string>() << "): " << r["poses"]
+        << " poses, " << r["matched"] << " at recorded stamps (" << r["identical"] << " identical), max difference "
+        << r["max_position_diff_m"] << " m / " << r["max_yaw_diff_rad"] << " rad; rejected " << r["rejected"]
+        << (r["last_error"].get<std::string>().empty() ? "" : " (last: " + r["last_error"].get<std::string>() + ")")
+        << "\n";
+  }
+}
+
+}  // namespace
+
 int run_replay(const ReplayOptions& options) {
   if (!options.config_file.empty()) return run_bag_replay(options);
   std::ostream& log = options.json ? std::cerr : std::cout;
@@ -712,34 +765,8 @@ int run_replay(const ReplayOptions& options) {
   const double span_s = static_cast<double>(last_log - first_log) * 1e-9;        // the whole recording
   const double input_s = static_cast<double>(last_input - first_input) * 1e-9;  // what was replayed
 
-  // Stamp by stamp: the poses this replay produced against the poses recorded.
-  const PoseTrack replayed_poses = target->poses();
-  Json robots = Json::array();
-  bool every_robot_posed = !target->robots.empty();
-  for (const auto& [robot, report] : target->robots) {
-    const auto& mine = replayed_poses.count(robot) ? replayed_poses.at(robot) : std::map<int64_t, Eigen::Isometry3d>{};
-    const auto& theirs = recorded.count(robot) ? recorded.at(robot) : std::map<int64_t, Eigen::Isometry3d>{};
-    size_t matched = 0, identical = 0;  // identical: within 1e-9 m and 1e-9 rad
-    double max_position = 0.0, sum_position = 0.0, max_yaw = 0.0;
-    for (const auto& [stamp, pose] : mine) {
-      const auto r = theirs.find(stamp);
-      if (r == theirs.end()) continue;
-      ++matched;
-      const double d = (pose.translation() - r->second.translation()).norm();
-      const double dyaw = std::abs(std::remainder(yaw_of(pose) - yaw_of(r->second), 2.0 * M_PI));
-      max_position = std::max(max_position, d);
-      sum_position += d;
-      max_yaw = std::max(max_yaw, dyaw);
-      if (d <= 1e-9 && dyaw <= 1e-9) ++identical;
-    }
-    if (mine.empty()) every_robot_posed = false;
-    robots.push_back({{"robot", robot}, {"plugin", report.plugin}, {"fed", report.fed}, {"rejected", report.rejected},
-                      {"no_session", report.no_session}, {"last_error", report.last_error},
-                      {"poses", mine.size()}, {"recorded_poses", theirs.size()}, {"matched", matched}, {"identical", identical},
-                      {"max_position_diff_m", max_position},
-                      {"mean_position_diff_m", matched ? sum_position / static_cast<double>(matched) : 0.0},
-                      {"max_yaw_diff_rad", max_yaw}});
-  }
+  bool every_robot_posed = false;
+  const Json robots = compare_with_recording(*target, recorded, every_robot_posed);
   Json skipped = Json::array();
   for (const auto& [id, plan] : plans) {
     if (!plan.problem.empty()) skipped.push_back({{"channel", id}, {"reason", plan.problem}});
@@ -761,16 +788,7 @@ int run_replay(const ReplayOptions& options) {
   if (options.json) {
     std::cout << out.dump() << "\n";
   } else {
-    log << "replayed " << replayed << " of " << messages << " messages (" << input_s << " s of the " << span_s
-        << " s recorded) in " << wall_s << " s (" << (wall_s > 0 ? input_s / wall_s : 0.0) << "x real time), " << (options.offline ? "offline" : "into locd")
-        << "\n";
-    for (const auto& r : robots) {
-      log << "  " << r["robot"].get<std::string>() << " (" << r["plugin"].get<std::string>() << "): " << r["poses"]
-          << " poses, " << r["matched"] << " at recorded stamps (" << r["identical"] << " identical), max difference " << r["max_position_diff_m"] << " m / "
-          << r["max_yaw_diff_rad"] << " rad; rejected " << r["rejected"]
-          << (r["last_error"].get<std::string>().empty() ? "" : " (last: " + r["last_error"].get<std::string>() + ")")
-          << "\n";
-    }
+    print_replay(out, log);
   }
   if (!format_error.empty()) {
     std::cerr << "locsim replay: " << format_error << "; the " << replayed << " messages before it were replayed\n";
