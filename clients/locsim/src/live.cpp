@@ -8,6 +8,7 @@
 #include <limits>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <type_traits>
 #include <variant>
@@ -45,6 +46,102 @@ LocalizationState state_named(const std::string& name) {
   return LocalizationState::kUnknown;
 }
 
+// What the robot's readers received (on Cyclone's threads), until the run scores it.
+struct Inbox {
+  std::mutex mutex;
+  std::vector<PoseUpdate> received;
+  std::vector<std::pair<int64_t, LocalizationState>> states;  // (received wall ns, state), in arrival order
+
+  void pose(const PoseUpdate& p) {
+    std::lock_guard<std::mutex> lock(mutex);
+    received.push_back(p);
+  }
+  void status(const SessionStatus& st) {
+    std::lock_guard<std::mutex> lock(mutex);
+    states.emplace_back(wall_ns(), state_named(st.localization));
+  }
+  // The poses old enough that their status is in (all of them when final_batch), taken out;
+  // `known_states` gets the states received so far.
+  std::vector<PoseUpdate> take(bool final_batch, std::vector<std::pair<int64_t, LocalizationState>>& known_states) {
+    std::lock_guard<std::mutex> lock(mutex);
+    const int64_t hold_from = final_batch ? std::numeric_limits<int64_t>::max() : wall_ns() - kScoringHoldNs;
+    const auto young = std::stable_partition(received.begin(), received.end(),
+                                             [&](const PoseUpdate& p) { return p.received_wall_ns < hold_from; });
+    std::vector<PoseUpdate> batch(received.begin(), young);
+    received.erase(received.begin(), young);
+    known_states = states;
+    return batch;
+  }
+};
+
+// A line a second: the last pose's error, update time and latency.
+void print_progress(std::ostream& log, double t, const Scenario& scenario, const TrajectoryEvaluator& evaluator) {
+  const auto& scored = evaluator.estimates();
+  char line[256];
+  if (scored.empty()) {
+    std::snprintf(line, sizeof(line), "t=%.1fs robot=%s plugin=%s poses=0", t, scenario.robot.id.c_str(),
+                  scenario.localizer.plugin.c_str());
+  } else {
+    const ScoredEstimate& last = scored.back();
+    std::snprintf(line, sizeof(line), "t=%.1fs robot=%s plugin=%s error=%.3fm update=%.2fms latency=%.2fms poses=%zu",
+                  t, scenario.robot.id.c_str(), scenario.localizer.plugin.c_str(), last.position_error_m,
+                  last.update_ms, last.latency_ms.value_or(0.0), scored.size());
+  }
+  log << line << std::endl;
+}
+
+// Starts the robot's session (and, over ROS 2, waits for locd's topics); says why not on stderr.
+bool start_session(Client& client, const Scenario& scenario, const std::string& config_text, LiveRos2Robot* ros2,
+                   const LiveOptions& options) {
+  const auto timeout = server_timeout(options);
+  const auto status = client.request_session(scenario.localizer.plugin, config_text, timeout);
+  if (!status) {
+    std::cerr << "locsim: the server did not answer the session request for robot '" << scenario.robot.id
+              << "' (plugin " << scenario.localizer.plugin << ") within " << options.server_timeout_s << " s\n";
+    return false;
+  }
+  if (!status->request_ok) {
+    std::cerr << "locsim: the server refused the session for robot '" << scenario.robot.id << "': " << status->message
+              << "\n";
+    return false;
+  }
+  if (ros2 && !ros2->wait_matched(timeout)) {
+    std::cerr << "locsim: locd's ROS 2 topics for robot '" << scenario.robot.id << "' in namespace "
+              << options.ros2_namespace << " did not appear within " << options.server_timeout_s << " s\n";
+    return false;
+  }
+  return true;
+}
+
+// One stamped measurement, over ROS 2 where the robot speaks it; with each odometry, the ground
+// truth at its stamp.
+void publish(Client& client, LiveRos2Robot* ros2, const Measurement& measurement, const Pose2& truth) {
+  std::visit(
+      [&](const auto& value) {
+        using T = std::decay_t<decltype(value)>;
+        if constexpr (std::is_same_v<T, Odometry>) {
+          PoseEstimate truth_pose;
+          truth_pose.header.stamp_ns = value.header.stamp_ns;
+          truth_pose.header.frame_id = "map";
+          truth_pose.pose = truth.to_isometry();
+          truth_pose.covariance = Matrix6d::Zero();
+          client.publish_ground_truth(truth_pose);
+        }
+        if (!ros2 || !ros2->publish(value)) client.publish(value);
+      },
+      measurement);
+}
+
+// The longest wait between two poses received (wall clock), if two were.
+std::optional<double> max_gap_ms(std::vector<int64_t> arrivals_ns) {
+  std::optional<double> gap;
+  std::sort(arrivals_ns.begin(), arrivals_ns.end());
+  for (size_t i = 1; i < arrivals_ns.size(); ++i) {
+    gap = std::max(gap.value_or(0.0), static_cast<double>(arrivals_ns[i] - arrivals_ns[i - 1]) * 1e-6);
+  }
+  return gap;
+}
+
 }  // namespace
 
 std::chrono::milliseconds server_timeout(const LiveOptions& options) {
@@ -71,19 +168,9 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
   const auto timeout = server_timeout(options);
   if (!wait_for_server(client, options)) return 2;
 
-  std::mutex mutex;
-  std::vector<PoseUpdate> received;
-  std::vector<std::pair<int64_t, LocalizationState>> states;  // (received wall ns, state), in arrival order
-  auto record = [&](const PoseUpdate& p) {
-    std::lock_guard<std::mutex> lock(mutex);
-    received.push_back(p);
-  };
-  client.on_status(
-      [&](const SessionStatus& st) {
-        std::lock_guard<std::mutex> lock(mutex);
-        states.emplace_back(wall_ns(), state_named(st.localization));
-      },
-      scenario.robot.id);
+  Inbox inbox;
+  auto record = [&](const PoseUpdate& p) { inbox.pose(p); };
+  client.on_status([&](const SessionStatus& st) { inbox.status(st); }, scenario.robot.id);
   std::string config_text = scenario.localizer.config_text;
   std::unique_ptr<LiveRos2Robot> ros2;  // --ros2: scans, odometry and poses over ROS 2 instead
   if (options.ros2_namespace.empty()) {
@@ -93,22 +180,7 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
     config_text += "\n" + ros2->config_section();
   }
 
-  const auto status = client.request_session(scenario.localizer.plugin, config_text, timeout);
-  if (!status) {
-    std::cerr << "locsim: the server did not answer the session request for robot '" << scenario.robot.id
-              << "' (plugin " << scenario.localizer.plugin << ") within " << options.server_timeout_s << " s\n";
-    return 2;
-  }
-  if (!status->request_ok) {
-    std::cerr << "locsim: the server refused the session for robot '" << scenario.robot.id << "': " << status->message
-              << "\n";
-    return 2;
-  }
-  if (ros2 && !ros2->wait_matched(timeout)) {
-    std::cerr << "locsim: locd's ROS 2 topics for robot '" << scenario.robot.id << "' in namespace "
-              << options.ros2_namespace << " did not appear within " << options.server_timeout_s << " s\n";
-    return 2;
-  }
+  if (!start_session(client, scenario, config_text, ros2.get(), options)) return 2;
 
   Simulation simulation(scenario, result.seed, result.duration_s, 0);
   // The robot's clock: stamps are the simulated measurement times, shifted to this run's
@@ -132,17 +204,8 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
   TrajectoryEvaluator evaluator(scenario.convergence_threshold_m, event ? std::optional<double>(event->t) : std::nullopt);
   // final_batch: score every pose received; else only those old enough that their status is in.
   auto score_received = [&](bool final_batch) {
-    std::vector<PoseUpdate> batch;
     std::vector<std::pair<int64_t, LocalizationState>> known_states;
-    {
-      std::lock_guard<std::mutex> lock(mutex);
-      const int64_t hold_from = final_batch ? std::numeric_limits<int64_t>::max() : wall_ns() - kScoringHoldNs;
-      const auto young = std::stable_partition(received.begin(), received.end(),
-                                               [&](const PoseUpdate& p) { return p.received_wall_ns < hold_from; });
-      batch.assign(received.begin(), young);
-      received.erase(received.begin(), young);
-      known_states = states;
-    }
+    const std::vector<PoseUpdate> batch = inbox.take(final_batch, known_states);
     for (const auto& p : batch) {
       const auto it = published.find(p.estimate.header.stamp_ns);
       if (it == published.end()) continue;  // a pose for a stamp this run never published
@@ -156,21 +219,6 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
       evaluator.add(it->second.t, p.estimate, it->second.truth, state, p.update_ms, latency_ms);
     }
   };
-  auto print_line = [&](double t) {
-    const auto& scored = evaluator.estimates();
-    char line[256];
-    if (scored.empty()) {
-      std::snprintf(line, sizeof(line), "t=%.1fs robot=%s plugin=%s poses=0", t, scenario.robot.id.c_str(),
-                    scenario.localizer.plugin.c_str());
-    } else {
-      const ScoredEstimate& last = scored.back();
-      std::snprintf(line, sizeof(line), "t=%.1fs robot=%s plugin=%s error=%.3fm update=%.2fms latency=%.2fms poses=%zu",
-                    t, scenario.robot.id.c_str(), scenario.localizer.plugin.c_str(), last.position_error_m,
-                    last.update_ms, last.latency_ms.value_or(0.0), scored.size());
-    }
-    log << line << std::endl;
-  };
-
   const auto wall_start = std::chrono::steady_clock::now();
   double next_print = 1.0;
   while (auto m = simulation.next()) {
@@ -182,23 +230,10 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
     std::visit([&](auto& value) { value.header.stamp_ns = stamp; }, m->measurement);
     published[stamp] = Published{m->t, truth, wall_ns()};
     ++result.measurements;
-    std::visit(
-        [&](const auto& value) {
-          using T = std::decay_t<decltype(value)>;
-          if constexpr (std::is_same_v<T, Odometry>) {
-            PoseEstimate truth_pose;
-            truth_pose.header.stamp_ns = stamp;
-            truth_pose.header.frame_id = "map";
-            truth_pose.pose = truth.to_isometry();
-            truth_pose.covariance = Matrix6d::Zero();
-            client.publish_ground_truth(truth_pose);
-          }
-          if (!ros2 || !ros2->publish(value)) client.publish(value);
-        },
-        m->measurement);
+    publish(client, ros2.get(), m->measurement, truth);
     if (m->t >= next_print) {
       score_received(false);
-      print_line(m->t);
+      print_progress(log, m->t, scenario, evaluator);
       next_print += 1.0;
     }
   }
@@ -213,11 +248,7 @@ int run_live(const Scenario& scenario, const LiveOptions& options) {
     result.last_rejection = st.last_error;
   }
   result.summary = evaluator.summary();
-  std::sort(pose_arrivals_ns.begin(), pose_arrivals_ns.end());
-  for (size_t i = 1; i < pose_arrivals_ns.size(); ++i) {
-    const double gap_ms = static_cast<double>(pose_arrivals_ns[i] - pose_arrivals_ns[i - 1]) * 1e-6;
-    result.summary.max_pose_gap_ms = std::max(result.summary.max_pose_gap_ms.value_or(0.0), gap_ms);
-  }
+  result.summary.max_pose_gap_ms = max_gap_ms(std::move(pose_arrivals_ns));
   result.estimates = evaluator.estimates();
   for (const auto& s : simulation.truth().samples()) result.truth_path.push_back(s.pose);
   if (result.summary.updates == 0) {
