@@ -444,79 +444,116 @@ const char* locd_topic_of() {
   return topics::kDetections;
 }
 
-int run_bag_replay(const ReplayOptions& options) {
-  std::ostream& log = options.json ? std::cerr : std::cout;
-  const std::string robot = options.robots.empty() ? "robot1" : options.robots.front();
+// What a bag replay needs, read and checked before anything is sent.
+struct BagPlan {
   std::string config_text;
   PluginConfig config;
   Ros2Config mapping;
   std::optional<ReferenceTrajectory> reference;
   std::optional<PoseEstimate> start;
   BagSummary checked;
+};
+
+// Reads the robot's config, the bag (every message checked) and the reference; places the initial
+// pose. Throws ConfigError or ReferenceError (or the bag's own errors) naming what is wrong.
+BagPlan check_bag_replay(const ReplayOptions& options, const std::string& robot, const Limits& limits) {
+  BagPlan plan;
+  const BagSummary& checked = plan.checked;
+  const std::optional<ReferenceTrajectory>& reference = plan.reference;
+  if (const std::string error = robot_id_error(robot); !error.empty()) throw ConfigError("--robot: " + error);
+  std::ifstream in(options.config_file);
+  if (!in) throw ConfigError("--config " + options.config_file + ": cannot be read");
+  std::stringstream text;
+  text << in.rdbuf();
+  plan.config_text = text.str();
+  plan.config = split_plugin_config(plan.config_text, options.config_file);
+  plan.mapping = bag_mapping(options, plan.config);
+  if (!options.reference_file.empty()) plan.reference = ReferenceTrajectory::read_tum(options.reference_file);
+  int64_t first_scan_ns = -1;
+  plan.checked = read_ros2_bag(options.file, plan.mapping, limits, [&](const BagMeasurement& m) {
+    if (first_scan_ns < 0 && (std::holds_alternative<LaserScan>(m.measurement) || std::holds_alternative<PointCloud>(m.measurement))) {
+      first_scan_ns = header_of(m.measurement).stamp_ns;
+    }
+  });
+  auto span = [](int64_t a, int64_t b) {
+    std::ostringstream s;
+    s.precision(3);
+    s << std::fixed << static_cast<double>(a) * 1e-9 << " s to " << static_cast<double>(b) * 1e-9 << " s";
+    return s.str();
+  };
+  if (reference && (reference->last_ns() < checked.first_stamp_ns || reference->first_ns() > checked.last_stamp_ns)) {
+    throw ReferenceError("reference " + reference->file() + " (t from " + span(reference->first_ns(), reference->last_ns()) +
+                         ") does not overlap the bag " + options.file + " (header.stamp from " +
+                         span(checked.first_stamp_ns, checked.last_stamp_ns) + "): not the same log, or not the same clock");
+  }
+  if (options.initial_pose == "reference") {
+    if (!reference) throw ConfigError("--initial-pose reference needs --reference");
+    const int64_t at = first_scan_ns >= 0 ? first_scan_ns : checked.first_stamp_ns;
+    const auto pose = reference->at(at);
+    if (!pose) {
+      throw ReferenceError("reference " + reference->file() + " holds no pose at the bag's first scan (" +
+                           std::to_string(static_cast<double>(at) * 1e-9) + " s) for --initial-pose reference");
+    }
+    Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
+    if (!options.initial_offset.empty()) offset = parse_xy_yaw(options.initial_offset, "--initial-offset");
+    plan.start = initial_pose_at(*pose * offset, at);
+  } else if (!options.initial_pose.empty()) {
+    if (!options.initial_offset.empty()) throw ConfigError("--initial-offset applies to --initial-pose reference");
+    plan.start = initial_pose_at(parse_xy_yaw(options.initial_pose, "--initial-pose"), checked.first_stamp_ns);
+  } else if (!options.initial_offset.empty()) {
+    throw ConfigError("--initial-offset applies to --initial-pose reference");
+  }
+  return plan;
+}
+
+// Where the replay goes: through the plugin here (--offline), or into the running locd that
+// `client` finds; null (said on stderr) when no server answers.
+std::unique_ptr<Target> make_target(const ReplayOptions& options, std::unique_ptr<Client>& client) {
+  if (options.offline) return std::make_unique<OfflineTarget>(options);
+  client = std::make_unique<Client>(ClientOptions{options.domain_id, "", 8, {"*"}});
+  if (!client->wait_for_server(std::chrono::milliseconds(static_cast<int64_t>(options.server_timeout_s * 1000)))) {
+    std::cerr << "locsim replay: no locd server answered on DDS domain " << options.domain_id << " within "
+              << options.server_timeout_s << " s (is locd running with the same CYCLONEDDS_URI and domain?)\n";
+    return nullptr;
+  }
+  return std::make_unique<DdsTarget>(options, *client);
+}
+
+// A bag replay's report (what --json prints) as text.
+void print_bag_replay(const Json& out, const std::optional<AbsolutePoseError>& ape, std::ostream& log) {
+  const std::string last_error = out["last_error"];
+  log << "replayed " << out["replayed"] << " of " << out["measurements"] << " sensor messages ("
+      << out["bag_span_s"].get<double>() << " s of bag) in " << out["wall_s"].get<double>() << " s, "
+      << (out["mode"] == "offline" ? "offline" : "into locd") << "; robot " << out["robot"].get<std::string>() << " ("
+      << out["plugin"].get<std::string>() << "): " << out["poses"] << " poses, rejected " << out["rejected"]
+      << ", dropped " << out["dropped"] << (last_error.empty() ? "" : " (last: " + last_error + ")") << "\n";
+  if (ape) {
+    log << "APE against " << out["reference"].get<std::string>() << " (" << ape->poses << " poses, " << ape->not_covered
+        << " outside the reference): RMSE " << ape->rmse_m << " m, mean " << ape->mean_m << " m, median " << ape->median_m
+        << " m, max " << ape->max_m << " m; heading RMSE " << ape->heading_rmse_deg << " deg; "
+        << 100.0 * ape->share_over_half_metre << " % over 0.5 m; RPE (1 pose apart, " << ape->rpe_pairs
+        << " pairs): RMSE " << ape->rpe_rmse_m << " m, max " << ape->rpe_max_m << " m\n";
+  }
+}
+
+int run_bag_replay(const ReplayOptions& options) {
+  std::ostream& log = options.json ? std::cerr : std::cout;
+  const std::string robot = options.robots.empty() ? "robot1" : options.robots.front();
   const Limits limits;
-  // Everything is checked before anything is sent.
-  try {
-    if (const std::string error = robot_id_error(robot); !error.empty()) throw ConfigError("--robot: " + error);
-    std::ifstream in(options.config_file);
-    if (!in) throw ConfigError("--config " + options.config_file + ": cannot be read");
-    std::stringstream text;
-    text << in.rdbuf();
-    config_text = text.str();
-    config = split_plugin_config(config_text, options.config_file);
-    mapping = bag_mapping(options, config);
-    if (!options.reference_file.empty()) reference = ReferenceTrajectory::read_tum(options.reference_file);
-    int64_t first_scan_ns = -1;
-    checked = read_ros2_bag(options.file, mapping, limits, [&](const BagMeasurement& m) {
-      if (first_scan_ns < 0 && (std::holds_alternative<LaserScan>(m.measurement) || std::holds_alternative<PointCloud>(m.measurement))) {
-        first_scan_ns = header_of(m.measurement).stamp_ns;
-      }
-    });
-    auto span = [](int64_t a, int64_t b) {
-      std::ostringstream s;
-      s.precision(3);
-      s << std::fixed << static_cast<double>(a) * 1e-9 << " s to " << static_cast<double>(b) * 1e-9 << " s";
-      return s.str();
-    };
-    if (reference && (reference->last_ns() < checked.first_stamp_ns || reference->first_ns() > checked.last_stamp_ns)) {
-      throw ReferenceError("reference " + reference->file() + " (t from " + span(reference->first_ns(), reference->last_ns()) +
-                           ") does not overlap the bag " + options.file + " (header.stamp from " +
-                           span(checked.first_stamp_ns, checked.last_stamp_ns) + "): not the same log, or not the same clock");
-    }
-    if (options.initial_pose == "reference") {
-      if (!reference) throw ConfigError("--initial-pose reference needs --reference");
-      const int64_t at = first_scan_ns >= 0 ? first_scan_ns : checked.first_stamp_ns;
-      const auto pose = reference->at(at);
-      if (!pose) {
-        throw ReferenceError("reference " + reference->file() + " holds no pose at the bag's first scan (" +
-                             std::to_string(static_cast<double>(at) * 1e-9) + " s) for --initial-pose reference");
-      }
-      Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
-      if (!options.initial_offset.empty()) offset = parse_xy_yaw(options.initial_offset, "--initial-offset");
-      start = initial_pose_at(*pose * offset, at);
-    } else if (!options.initial_pose.empty()) {
-      if (!options.initial_offset.empty()) throw ConfigError("--initial-offset applies to --initial-pose reference");
-      start = initial_pose_at(parse_xy_yaw(options.initial_pose, "--initial-pose"), checked.first_stamp_ns);
-    } else if (!options.initial_offset.empty()) {
-      throw ConfigError("--initial-offset applies to --initial-pose reference");
-    }
+  BagPlan plan;
+  try {  // everything is checked before anything is sent
+    plan = check_bag_replay(options, robot, limits);
   } catch (const std::exception& e) {
     std::cerr << "locsim replay: " << e.what() << "\n";
     return 1;
   }
+  const std::string& config_text = plan.config_text;
+  const PluginConfig& config = plan.config;
+  const BagSummary& checked = plan.checked;
 
   std::unique_ptr<Client> client;
-  std::unique_ptr<Target> target;
-  if (options.offline) {
-    target = std::make_unique<OfflineTarget>(options);
-  } else {
-    client = std::make_unique<Client>(ClientOptions{options.domain_id, "", 8, {"*"}});
-    if (!client->wait_for_server(std::chrono::milliseconds(static_cast<int64_t>(options.server_timeout_s * 1000)))) {
-      std::cerr << "locsim replay: no locd server answered on DDS domain " << options.domain_id << " within "
-                << options.server_timeout_s << " s (is locd running with the same CYCLONEDDS_URI and domain?)\n";
-      return 2;
-    }
-    target = std::make_unique<DdsTarget>(options, *client);
-  }
+  const std::unique_ptr<Target> target = make_target(options, client);
+  if (!target) return 2;
   const auto wall_start = Clock::now();
   bool stopped = false;
   {
@@ -538,8 +575,8 @@ int run_bag_replay(const ReplayOptions& options) {
       return 1;
     }
   }
-  if (!stopped && start) {
-    dds::to_wire(robot, *start, [&](const locd_msg_InitialPose& w) {
+  if (!stopped && plan.start) {
+    dds::to_wire(robot, *plan.start, [&](const locd_msg_InitialPose& w) {
       stopped = !target->feed(*mcap::find_topic(topics::kInitialPose), robot, &w);
     });
   }
@@ -551,7 +588,7 @@ int run_bag_replay(const ReplayOptions& options) {
   struct StopReplay {};
   try {
     if (!stopped) {
-      read_ros2_bag(options.file, mapping, limits, [&](const BagMeasurement& m) {
+      read_ros2_bag(options.file, plan.mapping, limits, [&](const BagMeasurement& m) {
         pacer.wait(m.log_time);
         std::visit(
             [&](const auto& value) {
@@ -595,8 +632,8 @@ int run_bag_replay(const ReplayOptions& options) {
               {"scans_without_pose", scans_without_pose},
               {"poses", poses.size()}};
   std::optional<AbsolutePoseError> ape;
-  if (reference) {
-    ape = absolute_pose_error(poses, *reference);
+  if (plan.reference) {
+    ape = absolute_pose_error(poses, *plan.reference);
     out["reference"] = options.reference_file;
     out["ape"] = {{"poses", ape->poses}, {"not_covered", ape->not_covered}, {"rmse_m", ape->rmse_m},
                   {"mean_m", ape->mean_m}, {"median_m", ape->median_m}, {"max_m", ape->max_m},
@@ -608,17 +645,7 @@ int run_bag_replay(const ReplayOptions& options) {
   if (options.json) {
     std::cout << out.dump() << "\n";
   } else {
-    log << "replayed " << replayed << " of " << checked.measurements << " sensor messages (" << span_s << " s of bag) in "
-        << wall_s << " s, " << (options.offline ? "offline" : "into locd") << "; robot " << robot << " ("
-        << out["plugin"].get<std::string>() << "): " << poses.size() << " poses, rejected " << report.rejected
-        << ", dropped " << report.dropped << (report.last_error.empty() ? "" : " (last: " + report.last_error + ")") << "\n";
-    if (ape) {
-      log << "APE against " << options.reference_file << " (" << ape->poses << " poses, " << ape->not_covered
-          << " outside the reference): RMSE " << ape->rmse_m << " m, mean " << ape->mean_m << " m, median " << ape->median_m
-          << " m, max " << ape->max_m << " m; heading RMSE " << ape->heading_rmse_deg << " deg; "
-          << 100.0 * ape->share_over_half_metre << " % over 0.5 m; RPE (1 pose apart, " << ape->rpe_pairs
-          << " pairs): RMSE " << ape->rpe_rmse_m << " m, max " << ape->rpe_max_m << " m\n";
-    }
+    print_bag_replay(out, ape, log);
   }
   if (stopped) return 2;
   if (poses.empty()) {
@@ -689,18 +716,8 @@ int run_replay(const ReplayOptions& options) {
   std::ostream& log = options.json ? std::cerr : std::cout;
   mcap::Reader reader(options.file);  // FormatError for a file that is not MCAP
   std::unique_ptr<Client> client;
-  std::unique_ptr<Target> target;
-  if (options.offline) {
-    target = std::make_unique<OfflineTarget>(options);
-  } else {
-    client = std::make_unique<Client>(ClientOptions{options.domain_id, "", 8, {"*"}});
-    if (!client->wait_for_server(std::chrono::milliseconds(static_cast<int64_t>(options.server_timeout_s * 1000)))) {
-      std::cerr << "locsim replay: no locd server answered on DDS domain " << options.domain_id << " within "
-                << options.server_timeout_s << " s (is locd running with the same CYCLONEDDS_URI and domain?)\n";
-      return 2;
-    }
-    target = std::make_unique<DdsTarget>(options, *client);
-  }
+  const std::unique_ptr<Target> target = make_target(options, client);
+  if (!target) return 2;
   Pacer pacer(options.rate.value_or(options.offline ? 0.0 : 1.0));
 
   std::map<uint16_t, ChannelPlan> plans;
