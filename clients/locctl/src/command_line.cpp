@@ -95,102 +95,66 @@ long parse_integer(const std::string& option, const std::string& text, long min,
 
 }  // namespace
 
-CommandLine parse_command_line(const std::vector<std::string>& args, const char* domain_env) {
-  CommandLine cl;
-  if (domain_env && *domain_env) cl.domain = static_cast<unsigned>(parse_integer("LOCD_DOMAIN", domain_env, 0, 232));
-  // CLI11 finds the options anywhere on the line; the values are read as text and converted
-  // below, so every message names the option, the value and what is allowed.
-  CLI::App app{"locctl", "locctl"};
-  app.set_help_flag();
-  app.allow_extras();
-  std::vector<std::string> words;
+namespace {
+
+// Option values as typed, before conversion (each message names the option and the value).
+struct RawOptions {
   std::string domain, timeout, count, std_xy, std_yaw, duration, compression, days, start, rtps_protection;
-  app.add_option("words", words);
-  app.add_flag("--help,-h", cl.help);
-  app.add_flag("--json", cl.json);
-  app.add_option("--domain", domain);
-  app.add_option("--timeout", timeout);
-  app.add_option("--count", count);
-  app.add_option("--std-xy", std_xy);
-  app.add_option("--std-yaw", std_yaw);
-  app.add_option("--duration", duration);
-  app.add_option("--compression", compression);
-  app.add_option("--days", days);
-  app.add_option("--start", start);
-  app.add_option("--rtps-protection", rtps_protection);
-  for (size_t i = 0; i < args.size(); ++i) {
-    const bool takes_value = args[i] == "--domain" || args[i] == "--timeout" || args[i] == "--count" ||
-                             args[i] == "--std-xy" || args[i] == "--std-yaw" || args[i] == "--duration" ||
-                             args[i] == "--compression" || args[i] == "--days" || args[i] == "--start" ||
-                             args[i] == "--rtps-protection";
-    if (takes_value && i + 1 == args.size()) throw UsageError("option " + args[i] + " needs a value");
-  }
-  std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them last first
-  try {
-    app.parse(reversed);
-  } catch (const CLI::ParseError& e) {
-    throw UsageError(std::string(e.what()) + "; see locctl --help");
-  }
-  for (const std::string& extra : app.remaining()) {
-    if (extra.size() > 1 && extra[0] == '-') throw UsageError("unknown option '" + extra + "'; see locctl --help");
-    words.push_back(extra);
-  }
-  if (!domain.empty()) cl.domain = static_cast<unsigned>(parse_integer("--domain", domain, 0, 232));
-  if (!timeout.empty()) {
-    const double t = parse_number("--timeout", timeout);
-    if (!(t > 0.0 && t <= 86400.0)) throw UsageError("--timeout = " + timeout + " is out of range; allowed: (0, 86400] seconds");
+};
+
+// The options' values converted and checked against their ranges.
+void convert_options(const RawOptions& o, CommandLine& cl) {
+  if (!o.domain.empty()) cl.domain = static_cast<unsigned>(parse_integer("--domain", o.domain, 0, 232));
+  if (!o.timeout.empty()) {
+    const double t = parse_number("--timeout", o.timeout);
+    if (!(t > 0.0 && t <= 86400.0)) throw UsageError("--timeout = " + o.timeout + " is out of range; allowed: (0, 86400] seconds");
     cl.timeout_s = t;
   }
-  if (!count.empty()) cl.count = parse_integer("--count", count, 1, 1'000'000'000);
-  if (!std_xy.empty()) {
-    cl.std_xy = parse_number("--std-xy", std_xy);
-    if (!(cl.std_xy > 0.0)) throw UsageError("--std-xy = " + std_xy + " must be > 0 (metres)");
+  if (!o.count.empty()) cl.count = parse_integer("--count", o.count, 1, 1'000'000'000);
+  if (!o.std_xy.empty()) {
+    cl.std_xy = parse_number("--std-xy", o.std_xy);
+    if (!(cl.std_xy > 0.0)) throw UsageError("--std-xy = " + o.std_xy + " must be > 0 (metres)");
   }
-  if (!std_yaw.empty()) {
-    cl.std_yaw = parse_number("--std-yaw", std_yaw);
-    if (!(cl.std_yaw > 0.0)) throw UsageError("--std-yaw = " + std_yaw + " must be > 0 (radians)");
+  if (!o.std_yaw.empty()) {
+    cl.std_yaw = parse_number("--std-yaw", o.std_yaw);
+    if (!(cl.std_yaw > 0.0)) throw UsageError("--std-yaw = " + o.std_yaw + " must be > 0 (radians)");
   }
-  if (!duration.empty()) {
-    const double d = parse_number("--duration", duration);
-    if (!(d > 0.0 && d <= 31.0 * 86400.0)) throw UsageError("--duration = " + duration + " is out of range; allowed: (0, 2678400] seconds");
+  if (!o.duration.empty()) {
+    const double d = parse_number("--duration", o.duration);
+    if (!(d > 0.0 && d <= 31.0 * 86400.0)) throw UsageError("--duration = " + o.duration + " is out of range; allowed: (0, 2678400] seconds");
     cl.duration_s = d;
   }
-  if (!compression.empty()) {
-    if (compression != "zstd" && compression != "lz4" && compression != "none") {
-      throw UsageError("--compression = '" + compression + "'; allowed: zstd, lz4, none");
+  if (!o.compression.empty()) {
+    if (o.compression != "zstd" && o.compression != "lz4" && o.compression != "none") {
+      throw UsageError("--compression = '" + o.compression + "'; allowed: zstd, lz4, none");
     }
-    cl.compression = compression;
+    cl.compression = o.compression;
   }
-  if (!days.empty()) cl.days = parse_integer("--days", days, 1, 36500);
-  if (!start.empty()) cl.start = start;
-  if (!rtps_protection.empty()) {
-    if (rtps_protection != "none" && rtps_protection != "sign" && rtps_protection != "encrypt") {
-      throw UsageError("--rtps-protection = '" + rtps_protection + "'; allowed: none, sign, encrypt");
+  if (!o.days.empty()) cl.days = parse_integer("--days", o.days, 1, 36500);
+  if (!o.start.empty()) cl.start = o.start;
+  if (!o.rtps_protection.empty()) {
+    if (o.rtps_protection != "none" && o.rtps_protection != "sign" && o.rtps_protection != "encrypt") {
+      throw UsageError("--rtps-protection = '" + o.rtps_protection + "'; allowed: none, sign, encrypt");
     }
-    cl.rtps_protection = rtps_protection;
+    cl.rtps_protection = o.rtps_protection;
   }
-  if (words.empty()) {
-    if (cl.help) {
-      cl.command = "help";
-      return cl;
-    }
-    throw UsageError("no command given; commands: use, status, watch, plugins, stop, initial-pose, record, security (see locctl --help)");
-  }
-  cl.command = words.front();
-  cl.arguments.assign(words.begin() + 1, words.end());
+}
+
+// The command's arguments and the options it allows.
+void check_command(const RawOptions& o, CommandLine& cl) {
   const auto arity = command_arity().find(cl.command);
   if (arity == command_arity().end()) {
     throw UsageError("unknown command '" + cl.command +
                      "'; commands: use, status, watch, plugins, stop, initial-pose, record, security (see locctl --help)");
   }
-  if (cl.help) return cl;
+  if (cl.help) return;
   const auto [min_args, max_args] = arity->second;
   if (cl.arguments.size() < min_args || cl.arguments.size() > max_args) {
     throw UsageError("'" + cl.command + "' takes " + arguments_of(cl.command) + ", got " +
                      std::to_string(cl.arguments.size()) + " argument(s); see locctl --help");
   }
   if (cl.count && cl.command != "watch") throw UsageError("--count applies to 'watch' only");
-  if ((!duration.empty() || !compression.empty()) && cl.command != "record") {
+  if ((!o.duration.empty() || !o.compression.empty()) && cl.command != "record") {
     throw UsageError("--duration and --compression apply to 'record' only");
   }
   if ((cl.days || cl.start) && cl.command != "security") throw UsageError("--days and --start apply to 'security' only");
@@ -208,7 +172,7 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
       throw UsageError("'security " + verb + "' takes " + std::to_string(expected - 1) + " argument(s), got " +
                        std::to_string(cl.arguments.size() - 1) + "; see locctl --help");
     }
-    return cl;
+    return;
   }
   if (cl.command == "initial-pose") {
     parse_number("X", cl.arguments[1]);
@@ -219,6 +183,61 @@ CommandLine parse_command_line(const std::vector<std::string>& args, const char*
     // The robot id names the robot's DDS partition: the same rule as the server's (robot_id.hpp).
     if (const std::string error = robot_id_error(cl.arguments[0]); !error.empty()) throw UsageError("ROBOT: " + error);
   }
+}
+
+}  // namespace
+
+CommandLine parse_command_line(const std::vector<std::string>& args, const char* domain_env) {
+  CommandLine cl;
+  if (domain_env && *domain_env) cl.domain = static_cast<unsigned>(parse_integer("LOCD_DOMAIN", domain_env, 0, 232));
+  // CLI11 finds the options anywhere on the line; the values are read as text and converted
+  // below, so every message names the option, the value and what is allowed.
+  CLI::App app{"locctl", "locctl"};
+  app.set_help_flag();
+  app.allow_extras();
+  std::vector<std::string> words;
+  RawOptions o;
+  app.add_option("words", words);
+  app.add_flag("--help,-h", cl.help);
+  app.add_flag("--json", cl.json);
+  app.add_option("--domain", o.domain);
+  app.add_option("--timeout", o.timeout);
+  app.add_option("--count", o.count);
+  app.add_option("--std-xy", o.std_xy);
+  app.add_option("--std-yaw", o.std_yaw);
+  app.add_option("--duration", o.duration);
+  app.add_option("--compression", o.compression);
+  app.add_option("--days", o.days);
+  app.add_option("--start", o.start);
+  app.add_option("--rtps-protection", o.rtps_protection);
+  for (size_t i = 0; i < args.size(); ++i) {
+    const bool takes_value = args[i] == "--domain" || args[i] == "--timeout" || args[i] == "--count" ||
+                             args[i] == "--std-xy" || args[i] == "--std-yaw" || args[i] == "--duration" ||
+                             args[i] == "--compression" || args[i] == "--days" || args[i] == "--start" ||
+                             args[i] == "--rtps-protection";
+    if (takes_value && i + 1 == args.size()) throw UsageError("option " + args[i] + " needs a value");
+  }
+  std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them last first
+  try {
+    app.parse(reversed);
+  } catch (const CLI::ParseError& e) {
+    throw UsageError(std::string(e.what()) + "; see locctl --help");
+  }
+  for (const std::string& extra : app.remaining()) {
+    if (extra.size() > 1 && extra[0] == '-') throw UsageError("unknown option '" + extra + "'; see locctl --help");
+    words.push_back(extra);
+  }
+  convert_options(o, cl);
+  if (words.empty()) {
+    if (cl.help) {
+      cl.command = "help";
+      return cl;
+    }
+    throw UsageError("no command given; commands: use, status, watch, plugins, stop, initial-pose, record, security (see locctl --help)");
+  }
+  cl.command = words.front();
+  cl.arguments.assign(words.begin() + 1, words.end());
+  check_command(o, cl);
   if (cl.command == "help") cl.help = true;
   return cl;
 }
