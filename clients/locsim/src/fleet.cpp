@@ -285,209 +285,146 @@ void write_plot(const std::string& file, const std::map<long, std::pair<size_t, 
   cv::imwrite(file, image);
 }
 
-}  // namespace
+// What the fleet replays: K simulated runs (robot i drives run i % K, its messages i / n of the
+// smallest sensor period later, so the fleet's load spreads) and the robots' ids.
+struct FleetPlan {
+  size_t n = 0, k_runs = 1;
+  double duration = 0.0, rate = 1.0;
+  double smallest_period = 1.0;  // the shortest gap between two messages of one stream
+  std::vector<Run> runs;         // stamps relative to their start
+  std::vector<std::string> ids;
+  std::unordered_map<std::string, size_t> index_of;
 
-int run_fleet(const Scenario& scenario, const FleetOptions& options) {
-  const size_t n = options.robots;
-  const size_t k_runs = std::max<size_t>(1, std::min(options.distinct_runs, n));
-  const double duration = options.duration_s.value_or(scenario.duration_s);
+  const Run& run_of(size_t i) const { return runs[i % k_runs]; }
+  int64_t offset_ns(size_t i) const {
+    return static_cast<int64_t>(std::llround(smallest_period * 1e9 * static_cast<double>(i) / static_cast<double>(n)));
+  }
+};
+
+FleetPlan plan_fleet(const Scenario& scenario, const FleetOptions& options) {
+  FleetPlan plan;
+  plan.n = options.robots;
+  plan.k_runs = std::max<size_t>(1, std::min(options.distinct_runs, plan.n));
+  plan.duration = options.duration_s.value_or(scenario.duration_s);
+  plan.rate = options.rate;
   const uint64_t seed = options.seed.value_or(scenario.seed);
-  std::ostream& log = options.json ? std::cerr : std::cout;
-
-  // The K simulated runs, stamps relative to their start.
-  std::vector<Run> runs(k_runs);
-  double smallest_period = 1.0;
-  for (size_t k = 0; k < k_runs; ++k) {
-    Simulation simulation(scenario, seed + k, duration, 0);
-    runs[k].initial_pose = simulation.initial_pose();
+  plan.runs.resize(plan.k_runs);
+  for (size_t k = 0; k < plan.k_runs; ++k) {
+    Simulation simulation(scenario, seed + k, plan.duration, 0);
+    Run& run = plan.runs[k];
+    run.initial_pose = simulation.initial_pose();
     std::map<size_t, double> last_t;
     while (auto m = simulation.next()) {
       const size_t kind = m->measurement.index();
       if (auto it = last_t.find(kind); it != last_t.end() && m->t > it->second) {
-        smallest_period = std::min(smallest_period, m->t - it->second);
+        plan.smallest_period = std::min(plan.smallest_period, m->t - it->second);
       }
       last_t[kind] = m->t;
-      runs[k].kind_at[std::llround(m->t * 1e9)] = kind;
+      run.kind_at[std::llround(m->t * 1e9)] = kind;
       if (options.outage_report) {
         const Pose2 truth = simulation.truth().at(m->t).pose;
-        runs[k].truth_at[std::llround(m->t * 1e9)] = Eigen::Vector2d(truth.x, truth.y);
+        run.truth_at[std::llround(m->t * 1e9)] = Eigen::Vector2d(truth.x, truth.y);
       }
-      runs[k].items.push_back({m->t, std::move(m->measurement)});
+      run.items.push_back({m->t, std::move(m->measurement)});
     }
   }
-  // Robot i's messages come i / n of the smallest sensor period later: the fleet's load spreads.
-  auto offset_ns = [&](size_t i) {
-    return static_cast<int64_t>(std::llround(smallest_period * 1e9 * static_cast<double>(i) / static_cast<double>(n)));
-  };
-  std::vector<std::string> ids(n);
-  std::unordered_map<std::string, size_t> index_of;
-  for (size_t i = 0; i < n; ++i) {
+  plan.ids.resize(plan.n);
+  for (size_t i = 0; i < plan.n; ++i) {
     std::ostringstream id;
     id << options.robot_prefix << std::setw(5) << std::setfill('0') << i;
-    ids[i] = id.str();
-    index_of[ids[i]] = i;
+    plan.ids[i] = id.str();
+    plan.index_of[plan.ids[i]] = i;
   }
+  return plan;
+}
 
-  dds::Participant participant(options.domain_id);
-  std::vector<std::unique_ptr<WriterGroup>> groups;
-  for (size_t first = 0; first < n; first += kRobotsPerWriter) {
-    dds::Partitions partitions;
-    for (size_t i = first; i < std::min(n, first + kRobotsPerWriter); ++i) partitions.push_back(topics::robot_partition(ids[i]));
-    groups.push_back(std::make_unique<WriterGroup>(participant, partitions));
+// A pose of robot i received at wall time `now` (under seen.mutex): matched to the message whose
+// stamp it carries, timed against when that message was due, counted.
+void record_pose(const FleetPlan& plan, const locd_msg_PoseEstimate& m, size_t i, int64_t now, int64_t origin_ns,
+                 bool outage_report, Observations& seen) {
+  const int64_t t_ns = m.header.stamp_ns - origin_ns - plan.offset_ns(i);
+  const auto& kinds = plan.run_of(i).kind_at;
+  const auto kind = kinds.find(t_ns);
+  if (kind == kinds.end()) {
+    ++seen.unmatched;
+    return;
   }
-  auto group_of = [&](size_t i) -> WriterGroup& { return *groups[i / kRobotsPerWriter]; };
+  if (!seen.stamps[i].insert(m.header.stamp_ns).second) {
+    ++seen.duplicated;
+    return;
+  }
+  // When the message was due (stamps are the run's clock, publishing paced by --rate).
+  const double due = static_cast<double>(origin_ns) + static_cast<double>(t_ns + plan.offset_ns(i)) / plan.rate;
+  const double latency_ms = (static_cast<double>(now) - due) * 1e-6;
+  ++seen.answered[i][kind->second];
+  ++seen.poses;
+  if (seen.last_pose_ns[i] != 0) {
+    seen.max_gap_ms[i] = std::max(seen.max_gap_ms[i], static_cast<double>(now - seen.last_pose_ns[i]) * 1e-6);
+  }
+  seen.last_pose_ns[i] = now;
+  if (outage_report) {
+    const auto& truth_at = plan.run_of(i).truth_at;
+    const auto truth = truth_at.find(t_ns);
+    const Eigen::Vector2d position(m.pose.position.x, m.pose.position.y);
+    const double error = truth == truth_at.end() ? std::nan("") : (position - truth->second).norm();
+    seen.arrivals[i].push_back({now, t_ns, error});
+  }
+  seen.latency_ms.push_back(latency_ms);
+  auto& second = seen.per_second[static_cast<long>((now - origin_ns) / 1'000'000'000)];
+  ++second.first;
+  second.second.push_back(latency_ms);
+}
 
-  Observations seen;
-  seen.status.resize(n);
-  seen.answered.resize(n, std::array<size_t, 6>{});
-  seen.last_pose_ns.resize(n, 0);
-  seen.stamps.resize(n);
-  seen.arrivals.resize(n);
-  seen.max_gap_ms.resize(n, 0.0);
-  int64_t origin_ns = 0;  // stamp of t = 0 (set before any sensor message)
-  const dds::Partitions every_robot{topics::kAllRobotsPartition};
-  dds::Reader<locd_msg_SessionStatus> statuses(
-      participant, topics::kSessionStatus, dds::QosProfile::kState,
-      [&](const locd_msg_SessionStatus& m) {
-        const auto it = index_of.find(dds::to_string(m.robot_id));
-        if (it == index_of.end()) return;
-        SessionStatus status = status_from_wire(m);
-        std::lock_guard<std::mutex> lock(seen.mutex);
-        seen.status[it->second] = std::move(status);
-        seen.changed.notify_all();
-      },
-      8, every_robot);
-  dds::Reader<locd_msg_PoseEstimate> poses(
-      participant, topics::kPose, dds::QosProfile::kPose,
-      [&](const locd_msg_PoseEstimate& m) {
-        const int64_t now = wall_ns();
-        const auto it = index_of.find(dds::to_string(m.robot_id));
-        if (it == index_of.end()) return;
-        const size_t i = it->second;
-        std::lock_guard<std::mutex> lock(seen.mutex);
-        if (origin_ns == 0) return;
-        const int64_t t_ns = m.header.stamp_ns - origin_ns - offset_ns(i);
-        const auto& kinds = runs[i % k_runs].kind_at;
-        const auto kind = kinds.find(t_ns);
-        if (kind == kinds.end()) {
-          ++seen.unmatched;
-          return;
-        }
-        if (!seen.stamps[i].insert(m.header.stamp_ns).second) {
-          ++seen.duplicated;
-          return;
-        }
-        // When the message was due (stamps are the run's clock, publishing paced by --rate).
-        const double due = static_cast<double>(origin_ns) + static_cast<double>(t_ns + offset_ns(i)) / options.rate;
-        const double latency_ms = (static_cast<double>(now) - due) * 1e-6;
-        ++seen.answered[i][kind->second];
-        ++seen.poses;
-        if (seen.last_pose_ns[i] != 0) {
-          seen.max_gap_ms[i] = std::max(seen.max_gap_ms[i], static_cast<double>(now - seen.last_pose_ns[i]) * 1e-6);
-        }
-        seen.last_pose_ns[i] = now;
-        if (options.outage_report) {
-          const auto truth = runs[i % k_runs].truth_at.find(t_ns);
-          const Eigen::Vector2d position(m.pose.position.x, m.pose.position.y);
-          const double error = truth == runs[i % k_runs].truth_at.end() ? std::nan("") : (position - truth->second).norm();
-          seen.arrivals[i].push_back({now, t_ns, error});
-        }
-        seen.latency_ms.push_back(latency_ms);
-        auto& second = seen.per_second[static_cast<long>((now - origin_ns) / 1'000'000'000)];
-        ++second.first;
-        second.second.push_back(latency_ms);
-      },
-      64, every_robot);
-
-  // Discovery: every group's writers and the readers matched by a server.
-  const auto timeout = std::chrono::duration<double>(options.server_timeout_s);
-  const auto discovery_deadline = Clock::now() + timeout;
-  for (const auto& g : groups) {
-    while (g->requests.matched() == 0 || g->odometry.matched() == 0) {
-      if (Clock::now() > discovery_deadline) {
-        std::cerr << "locsim fleet: no locd server on domain " << options.domain_id << " matched the fleet's writers within "
-                  << options.server_timeout_s << " s\n";
-        return 2;
+// Until every robot's status satisfies `done`; says how many did not, with an example, if not.
+bool wait_all(const FleetPlan& plan, const FleetOptions& options, Observations& seen,
+              const std::function<bool(const SessionStatus&)>& done, const char* what) {
+  std::unique_lock<std::mutex> lock(seen.mutex);
+  const bool ok = seen.changed.wait_for(lock, std::chrono::duration<double>(options.server_timeout_s), [&] {
+    return std::all_of(seen.status.begin(), seen.status.end(), done);
+  });
+  if (!ok) {
+    size_t count = 0;
+    std::string example;
+    for (size_t i = 0; i < plan.n; ++i) {
+      if (done(seen.status[i])) {
+        ++count;
+      } else if (example.empty()) {
+        example = plan.ids[i] + ": state '" + seen.status[i].state + "', " + seen.status[i].message + " " +
+                  seen.status[i].last_error;
       }
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
+    std::cerr << "locsim fleet: " << count << " of " << plan.n << " robots " << what << " within "
+              << options.server_timeout_s << " s; e.g. " << example << "\n";
   }
-  const ProcessSample before_sessions = sample_servers(options.server_pids);
+  return ok;
+}
 
-  // Sessions: one request each, then the initial poses, each waited for on the status topic.
-  const uint64_t request_id = static_cast<uint64_t>(wall_ns());
-  const auto start_requests = Clock::now();
-  for (size_t i = 0; i < n; ++i) {
-    auto request = std::make_unique<locd_msg_SessionRequest>();
-    std::memset(request.get(), 0, sizeof(locd_msg_SessionRequest));
-    dds::copy_string(request->robot_id, ids[i]);
-    request->request_id = request_id;
-    request->action = locd_msg_SESSION_START;
-    dds::borrow_text(request->config_yaml, scenario.localizer.config_text, topics::kMaxConfigYamlBytes);
-    group_of(i).requests.write(*request);
-  }
-  auto wait_all = [&](const std::function<bool(const SessionStatus&)>& done, const char* what) {
-    std::unique_lock<std::mutex> lock(seen.mutex);
-    const bool ok = seen.changed.wait_for(lock, timeout, [&] {
-      return std::all_of(seen.status.begin(), seen.status.end(), done);
-    });
-    if (!ok) {
-      size_t count = 0;
-      std::string example;
-      for (size_t i = 0; i < n; ++i) {
-        if (done(seen.status[i])) {
-          ++count;
-        } else if (example.empty()) {
-          example = ids[i] + ": state '" + seen.status[i].state + "', " + seen.status[i].message + " " +
-                    seen.status[i].last_error;
-        }
-      }
-      std::cerr << "locsim fleet: " << count << " of " << n << " robots " << what << " within " << options.server_timeout_s
-                << " s; e.g. " << example << "\n";
-    }
-    return ok;
-  };
-  if (!wait_all([&](const SessionStatus& s) { return s.state == "running" && s.request_id == request_id; },
-                "have a running session")) {
-    return 2;
-  }
-  const double sessions_started_s = std::chrono::duration<double>(Clock::now() - start_requests).count();
-  {
-    std::lock_guard<std::mutex> lock(seen.mutex);
-    origin_ns = wall_ns() + 500'000'000;  // every initial pose is held before the first message is due
-  }
-  for (size_t i = 0; i < n; ++i) {
-    PoseEstimate pose = runs[i % k_runs].initial_pose;
-    pose.header.stamp_ns = origin_ns;
-    dds::write(group_of(i).initial_poses, ids[i], pose);
-  }
-  if (!wait_all([&](const SessionStatus& s) { return s.initial_pose_stamp_ns == origin_ns; },
-                "had their initial pose taken")) {
-    return 2;
-  }
-  log << "locsim fleet: " << n << " robots running on domain " << options.domain_id << " (sessions started in "
-      << std::fixed << std::setprecision(2) << sessions_started_s << " s); driving " << duration << " s at rate "
-      << options.rate << std::defaultfloat << std::endl;
+// What publishing the fleet's messages took.
+struct Drive {
+  size_t published = 0;
+  std::vector<double> lag_ms;  // how late each message went out
+  double run_s = 0.0;
+  int64_t last_published_ns = 0;
+};
 
-  // Publish every robot's messages when due, numbered per robot and stream.
-  const int64_t t_origin = origin_ns;
-  while (wall_ns() < t_origin) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  const ProcessSample before = sample_servers(options.server_pids);
+// Publishes every robot's messages when due (from t_origin, wall clock), numbered per robot and
+// stream; a line a second unless --json.
+Drive drive_fleet(const FleetPlan& plan, const FleetOptions& options, int64_t t_origin,
+                  const std::vector<std::unique_ptr<WriterGroup>>& groups, Observations& seen, std::ostream& log) {
+  Drive drive;
   const auto run_start = Clock::now();
   using Event = std::pair<int64_t, size_t>;  // due (wall ns), robot
   std::priority_queue<Event, std::vector<Event>, std::greater<>> due;
-  std::vector<size_t> next(n, 0);
-  std::vector<std::array<uint64_t, 6>> sequence(n, std::array<uint64_t, 6>{});
+  std::vector<size_t> next(plan.n, 0);
+  std::vector<std::array<uint64_t, 6>> sequence(plan.n, std::array<uint64_t, 6>{});
   auto due_of = [&](size_t i) {
-    const Item& item = runs[i % k_runs].items[next[i]];
-    return t_origin + static_cast<int64_t>((item.t * 1e9 + static_cast<double>(offset_ns(i))) / options.rate);
+    const Item& item = plan.run_of(i).items[next[i]];
+    return t_origin + static_cast<int64_t>((item.t * 1e9 + static_cast<double>(plan.offset_ns(i))) / plan.rate);
   };
-  for (size_t i = 0; i < n; ++i) {
-    if (!runs[i % k_runs].items.empty()) due.emplace(due_of(i), i);
+  for (size_t i = 0; i < plan.n; ++i) {
+    if (!plan.run_of(i).items.empty()) due.emplace(due_of(i), i);
   }
-  std::vector<double> lag_ms;
-  lag_ms.reserve(1 << 20);
-  size_t published = 0;
+  drive.lag_ms.reserve(1 << 20);
   long next_report = 1;
   while (!due.empty()) {
     const auto [when, i] = due.top();
@@ -497,35 +434,38 @@ int run_fleet(const Scenario& scenario, const FleetOptions& options) {
       std::this_thread::sleep_for(std::chrono::nanoseconds(when - now));
       now = wall_ns();
     }
-    lag_ms.push_back(static_cast<double>(now - when) * 1e-6);
-    const Item& item = runs[i % k_runs].items[next[i]];
+    drive.lag_ms.push_back(static_cast<double>(now - when) * 1e-6);
+    const Item& item = plan.run_of(i).items[next[i]];
     Measurement m = item.measurement;
     std::visit(
         [&](auto& v) {
-          v.header.stamp_ns = t_origin + std::llround(item.t * 1e9) + offset_ns(i);
+          v.header.stamp_ns = t_origin + std::llround(item.t * 1e9) + plan.offset_ns(i);
           v.header.sequence = ++sequence[i][m.index()];
         },
         m);
-    group_of(i).write(ids[i], m);
-    ++published;
-    if (++next[i] < runs[i % k_runs].items.size()) due.emplace(due_of(i), i);
+    groups[i / kRobotsPerWriter]->write(plan.ids[i], m);
+    ++drive.published;
+    if (++next[i] < plan.run_of(i).items.size()) due.emplace(due_of(i), i);
     if (!options.json && now - t_origin >= next_report * 1'000'000'000L) {
       std::lock_guard<std::mutex> lock(seen.mutex);
-      log << "t=" << next_report << "s published=" << published << " poses=" << seen.poses << std::endl;
+      log << "t=" << next_report << "s published=" << drive.published << " poses=" << seen.poses << std::endl;
       ++next_report;
     }
   }
-  const double run_s = std::chrono::duration<double>(Clock::now() - run_start).count();
-  const int64_t last_published_ns = wall_ns();
-  const ProcessSample after = sample_servers(options.server_pids);
-  std::this_thread::sleep_for(kDrain);
-  // The servers' counters: statuses come once per status period.
-  std::this_thread::sleep_for(std::chrono::milliseconds(1200));
+  drive.run_s = std::chrono::duration<double>(Clock::now() - run_start).count();
+  drive.last_published_ns = wall_ns();
+  return drive;
+}
 
-  std::lock_guard<std::mutex> lock(seen.mutex);
+// The run's figures (under seen.mutex): poses expected and received, latencies, gaps, the
+// servers' counters, CPU and memory.
+Json fleet_report(const Scenario& scenario, const FleetOptions& options, const FleetPlan& plan, const Observations& seen,
+                  const Drive& drive, double sessions_started_s, const ProcessSample& before_sessions,
+                  const ProcessSample& before, const ProcessSample& after) {
+  const size_t n = plan.n;
   std::array<size_t, 6> published_by_kind{}, answered_by_kind{};
   for (size_t i = 0; i < n; ++i) {
-    for (const auto& item : runs[i % k_runs].items) ++published_by_kind[item.measurement.index()];
+    for (const auto& item : plan.run_of(i).items) ++published_by_kind[item.measurement.index()];
     for (size_t k = 0; k < 6; ++k) answered_by_kind[k] += seen.answered[i][k];
   }
   size_t pose_kind = 0;
@@ -547,20 +487,21 @@ int run_fleet(const Scenario& scenario, const FleetOptions& options) {
   const size_t expected_poses = published_by_kind[pose_kind];
   // Robots that got no pose in the last two seconds of driving (lost their server for good).
   size_t silent = 0;
-  for (size_t i = 0; i < n; ++i) silent += seen.last_pose_ns[i] < last_published_ns - 2'000'000'000;
+  for (size_t i = 0; i < n; ++i) silent += seen.last_pose_ns[i] < drive.last_published_ns - 2'000'000'000;
   const double max_gap_ms = n == 0 ? 0.0 : *std::max_element(seen.max_gap_ms.begin(), seen.max_gap_ms.end());
   const double cpu_s = after.cpu_s - before.cpu_s;
+  const double run_s = drive.run_s;
   static const char* kKindNames[] = {"odometry", "imu", "scan", "cloud", "image", "detections"};
 
   Json out = {{"robots", n},
               {"scenario", scenario.name},
               {"plugin", scenario.localizer.plugin},
               {"rate", options.rate},
-              {"duration_s", duration},
-              {"distinct_runs", k_runs},
+              {"duration_s", plan.duration},
+              {"distinct_runs", plan.k_runs},
               {"sessions_started_s", sessions_started_s},
-              {"messages_published", published},
-              {"messages_per_s", static_cast<double>(published) / run_s},
+              {"messages_published", drive.published},
+              {"messages_per_s", static_cast<double>(drive.published) / run_s},
               {"pose_kind", kKindNames[pose_kind]},
               {"poses_expected", expected_poses},
               {"poses_received", seen.poses},
@@ -570,7 +511,7 @@ int run_fleet(const Scenario& scenario, const FleetOptions& options) {
               {"latency_ms_p50", percentile(seen.latency_ms, 0.5)},
               {"latency_ms_p99", percentile(seen.latency_ms, 0.99)},
               {"latency_ms_max", seen.latency_ms.empty() ? 0.0 : *std::max_element(seen.latency_ms.begin(), seen.latency_ms.end())},
-              {"generator_lag_ms_p99", percentile(lag_ms, 0.99)},
+              {"generator_lag_ms_p99", percentile(drive.lag_ms, 0.99)},
               {"max_pose_gap_ms", max_gap_ms},
               {"robots_silent_at_end", silent},
               {"server_received", received},
@@ -590,6 +531,118 @@ int run_fleet(const Scenario& scenario, const FleetOptions& options) {
     out["server_memory_mb_per_session"] = (after.pss_mb - before_sessions.pss_mb) / static_cast<double>(n);
   }
   if (options.outage_report) out["outage"] = outage_report(seen.arrivals);
+  return out;
+}
+
+}  // namespace
+
+// The fleet: a plan of K simulated runs, writers and readers for every robot, sessions started and
+// initial poses taken, every message published when due, then the figures.
+int run_fleet(const Scenario& scenario, const FleetOptions& options) {
+  std::ostream& log = options.json ? std::cerr : std::cout;
+  const FleetPlan plan = plan_fleet(scenario, options);
+  const size_t n = plan.n;
+
+  dds::Participant participant(options.domain_id);
+  std::vector<std::unique_ptr<WriterGroup>> groups;
+  for (size_t first = 0; first < n; first += kRobotsPerWriter) {
+    dds::Partitions partitions;
+    for (size_t i = first; i < std::min(n, first + kRobotsPerWriter); ++i) {
+      partitions.push_back(topics::robot_partition(plan.ids[i]));
+    }
+    groups.push_back(std::make_unique<WriterGroup>(participant, partitions));
+  }
+
+  Observations seen;
+  seen.status.resize(n);
+  seen.answered.resize(n, std::array<size_t, 6>{});
+  seen.last_pose_ns.resize(n, 0);
+  seen.stamps.resize(n);
+  seen.arrivals.resize(n);
+  seen.max_gap_ms.resize(n, 0.0);
+  int64_t origin_ns = 0;  // stamp of t = 0 (set before any sensor message)
+  const dds::Partitions every_robot{topics::kAllRobotsPartition};
+  dds::Reader<locd_msg_SessionStatus> statuses(
+      participant, topics::kSessionStatus, dds::QosProfile::kState,
+      [&](const locd_msg_SessionStatus& m) {
+        const auto it = plan.index_of.find(dds::to_string(m.robot_id));
+        if (it == plan.index_of.end()) return;
+        SessionStatus status = status_from_wire(m);
+        std::lock_guard<std::mutex> lock(seen.mutex);
+        seen.status[it->second] = std::move(status);
+        seen.changed.notify_all();
+      },
+      8, every_robot);
+  dds::Reader<locd_msg_PoseEstimate> poses(
+      participant, topics::kPose, dds::QosProfile::kPose,
+      [&](const locd_msg_PoseEstimate& m) {
+        const int64_t now = wall_ns();
+        const auto it = plan.index_of.find(dds::to_string(m.robot_id));
+        if (it == plan.index_of.end()) return;
+        std::lock_guard<std::mutex> lock(seen.mutex);
+        if (origin_ns != 0) record_pose(plan, m, it->second, now, origin_ns, options.outage_report, seen);
+      },
+      64, every_robot);
+
+  // Discovery: every group's writers and the readers matched by a server.
+  const auto discovery_deadline = Clock::now() + std::chrono::duration<double>(options.server_timeout_s);
+  for (const auto& g : groups) {
+    while (g->requests.matched() == 0 || g->odometry.matched() == 0) {
+      if (Clock::now() > discovery_deadline) {
+        std::cerr << "locsim fleet: no locd server on domain " << options.domain_id << " matched the fleet's writers within "
+                  << options.server_timeout_s << " s\n";
+        return 2;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  }
+  const ProcessSample before_sessions = sample_servers(options.server_pids);
+
+  // Sessions: one request each, then the initial poses, each waited for on the status topic.
+  const uint64_t request_id = static_cast<uint64_t>(wall_ns());
+  const auto start_requests = Clock::now();
+  for (size_t i = 0; i < n; ++i) {
+    auto request = std::make_unique<locd_msg_SessionRequest>();
+    std::memset(request.get(), 0, sizeof(locd_msg_SessionRequest));
+    dds::copy_string(request->robot_id, plan.ids[i]);
+    request->request_id = request_id;
+    request->action = locd_msg_SESSION_START;
+    dds::borrow_text(request->config_yaml, scenario.localizer.config_text, topics::kMaxConfigYamlBytes);
+    groups[i / kRobotsPerWriter]->requests.write(*request);
+  }
+  if (!wait_all(plan, options, seen, [&](const SessionStatus& s) { return s.state == "running" && s.request_id == request_id; },
+                "have a running session")) {
+    return 2;
+  }
+  const double sessions_started_s = std::chrono::duration<double>(Clock::now() - start_requests).count();
+  {
+    std::lock_guard<std::mutex> lock(seen.mutex);
+    origin_ns = wall_ns() + 500'000'000;  // every initial pose is held before the first message is due
+  }
+  for (size_t i = 0; i < n; ++i) {
+    PoseEstimate pose = plan.run_of(i).initial_pose;
+    pose.header.stamp_ns = origin_ns;
+    dds::write(groups[i / kRobotsPerWriter]->initial_poses, plan.ids[i], pose);
+  }
+  const int64_t t_origin = origin_ns;
+  if (!wait_all(plan, options, seen, [&](const SessionStatus& s) { return s.initial_pose_stamp_ns == t_origin; },
+                "had their initial pose taken")) {
+    return 2;
+  }
+  log << "locsim fleet: " << n << " robots running on domain " << options.domain_id << " (sessions started in "
+      << std::fixed << std::setprecision(2) << sessions_started_s << " s); driving " << plan.duration << " s at rate "
+      << options.rate << std::defaultfloat << std::endl;
+
+  while (wall_ns() < t_origin) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  const ProcessSample before = sample_servers(options.server_pids);
+  const Drive drive = drive_fleet(plan, options, t_origin, groups, seen, log);
+  const ProcessSample after = sample_servers(options.server_pids);
+  std::this_thread::sleep_for(kDrain);
+  // The servers' counters: statuses come once per status period.
+  std::this_thread::sleep_for(std::chrono::milliseconds(1200));
+
+  std::lock_guard<std::mutex> lock(seen.mutex);
+  const Json out = fleet_report(scenario, options, plan, seen, drive, sessions_started_s, before_sessions, before, after);
   if (options.json) {
     std::cout << out.dump() << std::endl;
   } else {
