@@ -89,7 +89,6 @@ BootSession boot_session(const Params& entry, size_t index, const std::string& s
 constexpr double kMaxDeadlineS = 86400.0;
 constexpr long kMaxSessionsPerWorker = 100000;
 
-// sessions_per_worker: 'auto' (WorkerSettings::kAuto) or 1..kMaxSessionsPerWorker.
 // request_limits: {session_requests: {per_s, burst}, initial_poses: {...}, map_saves: {...},
 // session_requests_per_participant: {...}}.
 void parse_rate(const Params& p, const std::string& key, RequestRate& r) {
@@ -108,6 +107,7 @@ void parse_request_limits(const Params& p, RequestLimits& limits) {
   parse_rate(p, "session_requests_per_participant", limits.session_requests_per_participant);
 }
 
+// sessions_per_worker: 'auto' (WorkerSettings::kAuto) or 1..kMaxSessionsPerWorker.
 size_t sessions_per_worker(const Params& p) {
   const YAML::Node value = p.node()["sessions_per_worker"];
   if (value.IsScalar() && value.Scalar() == "auto") return WorkerSettings::kAuto;

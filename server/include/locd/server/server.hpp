@@ -61,7 +61,7 @@ class Server {
   // for it.
   void on_invalid_robot_id(const std::string& topic, const std::string& error);
   uint64_t messages_refused_for_robot_id() const;
-  // Requests, initial poses and map saves dropped over their robot's rate limit.
+  // Requests, initial poses and map saves dropped over a rate limit (request_limits).
   uint64_t requests_throttled() const;
 
   // Session ownership (session_ownership.cpp). The bridge reports when the last live writer of a
@@ -129,7 +129,8 @@ class Server {
   void publish_refusal(const std::string& robot_id, uint64_t request_id, std::string message);
   // The robot's rate limit (request_limits): true when `what` may be acted on; otherwise it is
   // counted as throttled on the robot's status (if it has a session here) and in the log, and a
-  // session request (`request_id`) is answered as refused, at most once a second per robot.
+  // session request (`request_id`) is answered as refused, at most once a second per robot and
+  // 20 a second in all.
   // `source`: the writer's participant, whose session requests are limited across the robots it names.
   bool admit(const std::string& robot_id, RequestKind kind, const std::string& what, uint64_t request_id = 0,
              const std::string& source = "");
