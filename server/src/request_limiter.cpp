@@ -16,6 +16,10 @@ const char* request_limit_key(RequestKind kind) {
 RequestLimiter::RequestLimiter(RequestLimits limits, size_t max_robots)
     : limits_(limits), max_robots_(std::max<size_t>(max_robots, 1)) {}
 
+RequestLimiter::RequestLimiter(RequestRate rate, size_t max_robots) : RequestLimiter(RequestLimits{}, max_robots) {
+  limits_.rates.fill(rate);
+}
+
 void RequestLimiter::refill(Bucket& bucket, RequestKind kind, Clock::time_point now) const {
   const RequestRate& rate = limits_.of(kind);
   const double elapsed_s = std::chrono::duration<double>(now - bucket.refilled).count();

@@ -12,13 +12,8 @@ namespace {
 
 constexpr auto kNoSessionReportPeriod = std::chrono::seconds(1);
 constexpr size_t kMaxUnservedRobots = 4096;  // bounds the memory a flood of robot ids can take
-
-// The limiter of writers' participants: session requests at the per-participant rate.
-RequestLimits per_participant(const RequestLimits& limits) {
-  RequestLimits l = limits;
-  l.rates[static_cast<size_t>(RequestKind::kSessionRequest)] = limits.session_requests_per_participant;
-  return l;
-}
+// Answers to dropped session requests: one a second per robot, 20 a second in all.
+constexpr RequestRate kThrottleAnswersPerRobot{1.0, 1.0}, kThrottleAnswers{20.0, 20.0};
 
 // Latest requests and other servers' resume states kept, whoever serves the robots.
 constexpr size_t kMaxRequestsKept = 200000;
@@ -86,7 +81,9 @@ Server::Server(ServerConfig config, const PluginIndex& catalog, OutputSink& sink
       environment_{workers_, pool_, sink_, static_cast<size_t>(config_.queue_depth), config_.failures,
                    configure_template(config_), nullptr},
       limiter_(config_.request_limits),
-      source_limiter_(per_participant(config_.request_limits)),
+      source_limiter_(config_.request_limits.session_requests_per_participant),
+      answers_per_robot_(kThrottleAnswersPerRobot),
+      answers_(kThrottleAnswers),
       state_file_(config_.state_directory), started_ns_(wall_clock_ns()), started_(std::chrono::steady_clock::now()),
       fleet_(ServerMember{config_.server_id, config_.weight, config_.server_group}),
       info_(make_info(config_, catalog_, started_ns_)) {
@@ -681,17 +678,9 @@ bool Server::admit(const std::string& robot_id, RequestKind kind, const std::str
     std::lock_guard<std::mutex> lock(mutex_);
     ++throttled_;
     if (auto it = sessions_.find(robot_id); it != sessions_.end()) session = it->second;
-    const auto now = std::chrono::steady_clock::now();
-    if (kind == RequestKind::kSessionRequest) {
-      if (throttle_answered_.size() >= kMaxUnservedRobots && !throttle_answered_.count(robot_id)) {
-        throttle_answered_.clear();
-      }
-      auto [last, first] = throttle_answered_.try_emplace(robot_id, now);
-      if ((first || now - last->second >= kNoSessionReportPeriod) && throttle_answers_.take(now)) {
-        last->second = now;
-        const auto stored = requests_.find(robot_id);
-        answer = session || fleet_.answers_for(robot_id, stored == requests_.end() ? "" : stored->second.group);
-      }
+    if (kind == RequestKind::kSessionRequest && answers_per_robot_.admit(robot_id, kind) && answers_.admit("", kind)) {
+      const auto stored = requests_.find(robot_id);
+      answer = session || fleet_.answers_for(robot_id, stored == requests_.end() ? "" : stored->second.group);
     }
   }
   if (session) {

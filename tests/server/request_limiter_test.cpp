@@ -37,6 +37,13 @@ TEST(RequestLimiter, AdmitsTheBurstThenTheRateAndNoMore) {
   EXPECT_EQ(admitted(slow, "a", RequestKind::kSessionRequest, t0, 500ms, 60s), 120);
 }
 
+TEST(RequestLimiter, OneRateForEveryKindCountsTheSame) {
+  RequestLimiter limiter(locd::server::RequestRate{2.0, 5.0});
+  const auto t0 = Clock::time_point{} + 1000s;
+  EXPECT_EQ(admitted(limiter, "a", RequestKind::kMapSave, t0, 10ms, 10s), 5 + 19);
+  EXPECT_EQ(admitted(limiter, "a", RequestKind::kInitialPose, t0, 10ms, 10s), 5 + 19);
+}
+
 TEST(RequestLimiter, RefillsToTheBurstAndNotBeyond) {
   RequestLimiter limiter(limits(1.0, 3.0));
   const auto t0 = Clock::time_point{} + 1000s;

@@ -41,6 +41,8 @@ class RequestLimiter {
   // forgotten (they hold nothing); if that frees less than a quarter, all are, and each starts
   // again from a full burst.
   explicit RequestLimiter(RequestLimits limits, size_t max_robots = 16384);
+  // The same rate for every kind (the kind then only keeps a key's buckets apart).
+  explicit RequestLimiter(RequestRate rate, size_t max_robots = 16384);
 
   // True when the robot may make this request now (a token is taken); false when it is over its
   // limit.

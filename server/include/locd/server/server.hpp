@@ -143,8 +143,10 @@ class Server {
   WorkerPool pool_;
   PluginWorkers workers_;
   SessionEnvironment environment_;
-  RequestLimiter limiter_;         // per robot
-  RequestLimiter source_limiter_;  // per writer participant (session requests)
+  RequestLimiter limiter_;            // per robot
+  RequestLimiter source_limiter_;     // per writer participant (session requests)
+  RequestLimiter answers_per_robot_;  // answers to dropped session requests, per robot
+  RequestLimiter answers_;            // the same, every robot together (one key)
   StateFile state_file_;
   int64_t started_ns_;
   std::chrono::steady_clock::time_point started_;
@@ -164,23 +166,6 @@ class Server {
   uint64_t throttled_ = 0;                    // requests over a limit (the robot's or its writer's), every robot
   uint64_t throttled_not_logged_ = 0;         // of those, since the last line logged (one a second)
   std::chrono::steady_clock::time_point last_throttle_log_{};
-  std::map<std::string, std::chrono::steady_clock::time_point> throttle_answered_;  // robot -> last answer
-  // Answers to dropped session requests, every robot together: at most `limit` a second.
-  struct Window {
-    std::chrono::steady_clock::time_point start{};
-    size_t used = 0;
-    size_t limit = 20;
-    bool take(std::chrono::steady_clock::time_point now) {
-      if (now - start >= std::chrono::seconds(1)) {
-        start = now;
-        used = 0;
-      }
-      if (used >= limit) return false;
-      ++used;
-      return true;
-    }
-  };
-  Window throttle_answers_;
   std::map<std::string, ResumeState> saved_;  // the last run's states, given to sessions as they start
   // The latest start request of every robot (served here or elsewhere), and which one this
   // server acted on; the fleet's view; the other servers' resume states.
