@@ -137,6 +137,7 @@ void GridMclLocalizer::correct(const LaserScan& scan, UpdateResult& result) {
               {"injection_probability", report.injection_probability},
               {"injected", static_cast<double>(report.injected)},
               {"scan_fit", report.fit},
+              {"scan_known", report.known},
               {"see_through", report.see_through}};
   if (const auto e = filter_->estimate()) d.values.push_back({"cluster_mass", e->mass});
   d.particles = diagnostic_particles(filter_->particles(), config_.diagnostics_particles);

@@ -43,6 +43,7 @@ void read_laser(const Params& p, LaserModelConfig& l) {
   l.sigma_hit = p.number("sigma_hit", l.sigma_hit, Range{0.0, 100.0, true, false});
   l.lambda_short = p.number("lambda_short", l.lambda_short, Range{0.0, 1000.0, true, false});
   l.likelihood_max_dist = p.number("laser_likelihood_max_dist", l.likelihood_max_dist, Range{0.0, 1000.0, true, false});
+  l.unknown_occupancy = p.number("unknown_occupancy", l.unknown_occupancy, Range::closed(0.0, 1.0));
   l.search_sigma_hit = p.number("search_sigma_hit", l.search_sigma_hit, Range::closed(0.0, 100.0));
 }
 
@@ -84,12 +85,13 @@ void read_filter(const Params& p, const Limits& limits, FilterConfig& f) {
 
 void read_state(const Params& params, StateCriteria& s) {
   const Params p = params.child("localization_state");
-  p.expect_only({"fit_distance", "tracking_min_fit", "lost_max_fit", "tracking_min_cluster_mass", "lost_max_cluster_mass",
+  p.expect_only({"fit_distance", "tracking_min_fit", "tracking_min_known", "lost_max_fit", "tracking_min_cluster_mass", "lost_max_cluster_mass",
                  "tracking_max_position_stddev", "tracking_max_yaw_stddev", "tracking_min_fast_slow_ratio",
                  "tracking_max_see_through", "see_through_margin", "see_through_fraction", "see_through_beams"});
   s.fit_distance = p.number("fit_distance", s.fit_distance, Range{0.0, 100.0, true, false});
   s.tracking_min_fit = p.number("tracking_min_fit", s.tracking_min_fit, Range::closed(0.0, 1.0));
   s.lost_max_fit = p.number("lost_max_fit", s.lost_max_fit, Range::closed(0.0, s.tracking_min_fit));
+  s.tracking_min_known = p.number("tracking_min_known", s.tracking_min_known, Range::closed(0.0, 1.0));
   s.tracking_min_cluster_mass = p.number("tracking_min_cluster_mass", s.tracking_min_cluster_mass, Range::closed(0.0, 1.0));
   s.lost_max_cluster_mass =
       p.number("lost_max_cluster_mass", s.lost_max_cluster_mass, Range::closed(0.0, s.tracking_min_cluster_mass));
@@ -137,7 +139,7 @@ Config parse_config(const Params& params, const Limits& limits, std::vector<std:
   }
   params.expect_only({"map", "robot_model_type", "alpha1", "alpha2", "alpha3", "alpha4", "alpha5", "laser_model_type",
                       "max_beams", "laser_min_range", "laser_max_range", "z_hit", "z_short", "z_max", "z_rand",
-                      "sigma_hit", "lambda_short", "laser_likelihood_max_dist", "search_sigma_hit", "min_particles", "max_particles",
+                      "sigma_hit", "lambda_short", "laser_likelihood_max_dist", "unknown_occupancy", "search_sigma_hit", "min_particles", "max_particles",
                       "global_particles", "pf_err", "pf_z", "kld_bin", "resample_interval", "selective_resampling", "recovery_alpha_slow",
                       "recovery_alpha_fast", "relocalize_after_lost_updates",
                       "hypothesis_test_after_uncertain_updates", "hypothesis_candidates", "hypothesis_confirm_updates", "update_min_d", "update_min_a", "cluster_radius", "threads", "seed",

@@ -49,21 +49,29 @@ TEST(GridMclFilter, GlobalLocalizationFromAUniformStart) {
   }
 }
 
+// The loop's near 180-degree symmetry lets a global search settle on the twin now and then (the
+// plugin README's kidnap figures), so the test asks it of most of four seeds, every one of which
+// must report the kidnap and relocalize.
 TEST(GridMclFilter, AKidnappedRobotIsDeclaredLostAndRelocalizes) {
-  RunSpec spec;
-  spec.scenario_file = corridor();
-  spec.seed = 2;
-  spec.duration_s = 85.0;
-  spec.kidnap_at = 25.0;
-  spec.kidnap_ahead_s = 20.0;
-  const RunTrace trace = run_scenario(spec);
-  bool lost = false;
-  for (const TraceSample& s : trace.samples) lost = lost || (s.t > spec.kidnap_at && s.state == LocalizationState::kLost);
-  EXPECT_TRUE(lost);
-  EXPECT_GE(trace.relocalizations, 1u);
-  const double recovered = settled_time(trace, 0.2, spec.kidnap_at, spec.duration_s);
-  EXPECT_GE(recovered, 0.0);
-  EXPECT_EQ(trace.last_state, LocalizationState::kTracking) << trace.samples.back().reason;
+  int recovered = 0;
+  for (uint64_t seed : {1, 2, 3, 4}) {
+    RunSpec spec;
+    spec.scenario_file = corridor();
+    spec.seed = seed;
+    spec.duration_s = 85.0;
+    spec.kidnap_at = 25.0;
+    spec.kidnap_ahead_s = 20.0;
+    const RunTrace trace = run_scenario(spec);
+    bool lost = false;
+    for (const TraceSample& s : trace.samples) lost = lost || (s.t > spec.kidnap_at && s.state == LocalizationState::kLost);
+    EXPECT_TRUE(lost) << "seed " << seed;
+    EXPECT_GE(trace.relocalizations, 1u) << "seed " << seed;
+    if (settled_time(trace, 0.2, spec.kidnap_at, spec.duration_s) >= 0.0) {
+      ++recovered;
+      EXPECT_EQ(trace.last_state, LocalizationState::kTracking) << "seed " << seed << ": " << trace.samples.back().reason;
+    }
+  }
+  EXPECT_GE(recovered, 3) << "of 4 seeds back within 0.2 m for good by the end";
 }
 
 // Carried back along the same corridor, heading the same way: nearly every beam still ends on a

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <random>
 
+#include "locd/grid_mcl/grid_particle_filter.hpp"
 #include "locd/grid_mcl/laser_models.hpp"
 #include "locd/grid_mcl/motion_models.hpp"
 #include "locd/sdk/geometry.hpp"
@@ -92,13 +93,17 @@ TEST(GridMclScan, PicksBeamsAsAmclAndReadsNoReturns) {
   EXPECT_NEAR(flipped.bearing[5], -s.angle(30), 1e-6);
 }
 
+// Random poses put many beam ends outside the room, in its unknown cells and beyond the map.
 TEST(GridMclLikelihoodField, TablePathMatchesTheDirectFormula) {
+  for (const double unknown_occupancy : {0.0, 0.5}) {
   for (LaserModelType type : {LaserModelType::kLikelihoodField, LaserModelType::kLikelihoodFieldProb}) {
+    SCOPED_TRACE("unknown_occupancy " + std::to_string(unknown_occupancy));
     LaserModelConfig config;
     config.type = type;
     config.z_hit = 0.9;
     config.z_rand = 0.1;
     config.sigma_hit = 0.15;
+    config.unknown_occupancy = unknown_occupancy;
     LaserModel model(room(), config);
     const PreparedScan scan = prepare_scan(scan_from(Pose2(3.0, 2.5, 0.4)), config);
     model.prepare(scan);
@@ -122,6 +127,7 @@ TEST(GridMclLikelihoodField, TablePathMatchesTheDirectFormula) {
     EXPECT_LE(differing, 5);
     // The truth beats every random pose.
     for (size_t i = 1; i < particles.size(); ++i) EXPECT_GT(factor[0], factor[i]);
+  }
   }
 }
 
@@ -184,6 +190,134 @@ TEST(GridMclLikelihoodField, OneBeamByHand) {
   EXPECT_NEAR(model.factor_direct(Pose2(50.0, 50.0, 0.0), scan), 1.0 + far * far * far, 1e-12);
   EXPECT_NEAR(model.fit(Pose2(8.9, 1.0, 0.0), scan, 0.1), 1.0, 1e-12);
   EXPECT_NEAR(model.fit(Pose2(5.0, 1.0, 0.0), scan, 0.1), 0.0, 1e-12);
+}
+
+// unknown_occupancy u: a beam ending in an unknown cell is a wall there with probability u,
+// pz = u (z_hit + z_rand / z_max) + (1 - u) pz(d); beyond the map d saturates.
+TEST(GridMclLikelihoodField, ABeamEndingInUnknownSpaceByHand) {
+  LaserModelConfig config;
+  config.type = LaserModelType::kLikelihoodField;
+  config.z_hit = 0.8;
+  config.z_rand = 0.2;
+  config.sigma_hit = 0.1;
+  config.unknown_occupancy = 0.5;
+  LaserModel model(room(), config);
+  PreparedScan scan;
+  scan.z_max = 8.0;
+  scan.range = {1.0};
+  scan.bearing = {0.0};
+  scan.hit = {1};
+  scan.end = {Eigen::Vector2d(1.0, 0.0)};
+  model.prepare(scan);
+  const auto known = [](double d) { return 0.8 * std::exp(-d * d / (2 * 0.1 * 0.1)) + 0.2 / 8.0; };
+  const auto cube = [](double x) { return x * x * x; };
+  // From (8, -0.35) the beam ends at (9, -0.35), an unknown cell 0.35 m below the wall y = 0.
+  const double below = 0.5 * (0.8 + 0.2 / 8.0) + 0.5 * known(0.35);
+  EXPECT_NEAR(model.factor_direct(Pose2(8.0, -0.35, 0.0), scan), 1.0 + cube(below), 1e-9);
+  // Beyond the map: unknown, the field saturated.
+  const double beyond = 0.5 * (0.8 + 0.2 / 8.0) + 0.5 * known(2.0);
+  EXPECT_NEAR(model.factor_direct(Pose2(50.0, 50.0, 0.0), scan), 1.0 + cube(beyond), 1e-12);
+  // A known free cell as before: the field at the end (6, 1).
+  double direct_known = 0.0;
+  model.factor_direct(Pose2(5.0, 1.0, 0.0), scan, &direct_known);
+  int row = 0, col = 0;
+  ASSERT_TRUE(room()->map.geometry().index_of({6.0, 1.0}, row, col));
+  EXPECT_NEAR(direct_known, known(room()->field.distance(row, col)), 1e-9);
+  // The fast path agrees.
+  std::vector<PoseParticle> particles(2);
+  particles[0].pose = Pose2(8.0, -0.35, 0.0);
+  particles[1].pose = Pose2(50.0, 50.0, 0.0);
+  double factor[2], measure[2];
+  model.factors(particles, 0, 2, scan, factor, measure);
+  EXPECT_NEAR(factor[0], 1.0 + cube(below), 1e-5);
+  EXPECT_NEAR(factor[1], 1.0 + cube(beyond), 1e-5);
+  // With 0 (AMCL) an unknown cell is scored by its distance to the nearest obstacle.
+  config.unknown_occupancy = 0.0;
+  LaserModel amcl(room(), config);
+  amcl.prepare(scan);
+  EXPECT_NEAR(amcl.factor_direct(Pose2(8.0, -0.35, 0.0), scan), 1.0 + cube(known(0.35)), 1e-9);
+  amcl.factors(particles, 0, 2, scan, factor, measure);
+  EXPECT_NEAR(factor[0], 1.0 + cube(known(0.35)), 1e-5);
+}
+
+// The state's scan fit with known_only: a return ending away from any obstacle in unknown space
+// it reached without passing a wall says nothing (the map lacks that part); one that passed
+// through a wall of the map still disagrees.
+TEST(GridMclScanFit, ReturnsIntoUnknownSpaceCountOnlyThroughAWall) {
+  LaserModelConfig config;
+  const LaserModel model(room(), config);
+  const auto two_beams = [](double bearing0, double range0, double bearing1, double range1) {
+    PreparedScan scan;
+    scan.z_max = 8.0;
+    scan.range = {range0, range1};
+    scan.bearing = {bearing0, bearing1};
+    scan.hit = {1, 1};
+    for (size_t k = 0; k < 2; ++k) {
+      scan.end.push_back(scan.range[k] * Eigen::Vector2d(std::cos(scan.bearing[k]), std::sin(scan.bearing[k])));
+    }
+    return scan;
+  };
+  // Below the room at (8, -0.35): up to the wall (fits), and along it into unknown space.
+  const PreparedScan outside = two_beams(M_PI / 2, 0.35, 0.0, 1.0);
+  EXPECT_NEAR(model.fit(Pose2(8.0, -0.35, 0.0), outside, 0.1), 0.5, 1e-12);
+  EXPECT_NEAR(model.fit(Pose2(8.0, -0.35, 0.0), outside, 0.1, true), 1.0, 1e-12);
+  // Inside at (8, 0.35): down to the wall (fits), and through it into the unknown cells below.
+  const PreparedScan through = two_beams(-M_PI / 2, 0.35, -M_PI / 2, 0.7);
+  EXPECT_NEAR(model.fit(Pose2(8.0, 0.35, 0.0), through, 0.1), 0.5, 1e-12);
+  EXPECT_NEAR(model.fit(Pose2(8.0, 0.35, 0.0), through, 0.1, true), 0.5, 1e-12);
+  // Nothing counted: no fit.
+  const PreparedScan lost = two_beams(0.0, 1.0, 0.0, 1.2);
+  EXPECT_NEAR(model.fit(Pose2(8.0, -0.35, 0.0), lost, 0.1, true), 0.0, 1e-12);
+}
+
+// The room's map without its walls at x = 10 and y = 6 (unknown there, as a map that never saw
+// them); the world (scan_from) keeps them.
+std::shared_ptr<const SharedMap> room_missing_two_walls() {
+  static const std::shared_ptr<const SharedMap> map = [] {
+    const OccupancyMap& full = room()->map;
+    const GridGeometry& g = full.geometry();
+    std::vector<int8_t> cells = full.cells();
+    for (int r = 0; r < g.height; ++r) {
+      for (int c = 0; c < g.width; ++c) {
+        const Eigen::Vector2d p = g.center_of(r, c);
+        if (full.at(r, c) == OccupancyMap::kOccupied && (p.x() > 9.9 || p.y() > 5.9)) {
+          cells[static_cast<size_t>(r) * g.width + c] = OccupancyMap::kUnknown;
+        }
+      }
+    }
+    auto m = std::make_shared<SharedMap>();
+    m->map = OccupancyMap(g, std::move(cells));
+    m->field = DistanceField(m->map);
+    return m;
+  }();
+  return map;
+}
+
+// Where the map lacks most of what the scan sees, the filter says uncertain (its pose rests on
+// odometry) and names why, never lost: the returns into the part the map lacks neither fit nor
+// misfit. With the whole map the same scan tracks.
+TEST(GridMclState, ReturnsWhereTheMapKnowsNothingMakeItUncertainNotLost) {
+  Config config;
+  config.laser.type = LaserModelType::kLikelihoodFieldProb;
+  config.laser.unknown_occupancy = 0.5;
+  const Pose2 truth(8.5, 4.5, 0.8);
+  const LaserScan scan = scan_from(truth);
+  for (const bool whole : {true, false}) {
+    SCOPED_TRACE(whole ? "the whole map" : "two walls missing");
+    GridParticleFilter filter(config, whole ? room() : room_missing_two_walls());
+    filter.set_pose(truth, Eigen::Vector3d(0.02, 0.02, 0.01).cwiseAbs2().asDiagonal());
+    const CorrectionReport report = filter.correct(scan, Pose2());
+    ASSERT_TRUE(report.updated);
+    EXPECT_GT(report.fit, 0.9) << "every return the map can judge fits";
+    if (whole) {
+      EXPECT_GT(report.known, 0.99);
+      EXPECT_EQ(filter.assessment().state, LocalizationState::kTracking) << filter.assessment().reason;
+    } else {
+      EXPECT_LT(report.known, config.state.tracking_min_known);
+      EXPECT_EQ(filter.assessment().state, LocalizationState::kUncertain) << filter.assessment().reason;
+      EXPECT_NE(filter.assessment().reason.find("the map knows where"), std::string::npos) << filter.assessment().reason;
+    }
+  }
 }
 
 TEST(GridMclBeamModel, MixtureByHandAndTheTruthWins) {

@@ -103,6 +103,8 @@ TEST_F(GridMclPlugin, ParameterErrorsNameTheirKey) {
   EXPECT_NE(error("  alpha1: 0.1\n").find(".map'"), std::string::npos) << error("  alpha1: 0.1\n");
   EXPECT_NE(error(map + "  laser_model_type: sonar\n").find(".laser_model_type'"), std::string::npos);
   EXPECT_NE(error(map + "  z_hit: 1.5\n").find(".z_hit'"), std::string::npos);
+  EXPECT_NE(error(map + "  unknown_occupancy: 1.5\n").find(".unknown_occupancy'"), std::string::npos)
+      << error(map + "  unknown_occupancy: 1.5\n");
   EXPECT_NE(error(map + "  min_particles: 5000\n  max_particles: 100\n").find(".max_particles'"), std::string::npos);
   EXPECT_NE(error(map + "  max_particles: 200000\n").find("100000"), std::string::npos)
       << "bounded by the server's limits.max_particles: " << error(map + "  max_particles: 200000\n");

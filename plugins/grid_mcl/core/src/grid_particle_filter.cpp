@@ -216,7 +216,8 @@ CorrectionReport GridParticleFilter::correct(const LaserScan& scan, const Pose2&
   // through them for many updates; they make the state uncertain only.
   const StateCriteria& c = config_.state;
   const bool committed = estimate_->mass >= c.tracking_min_cluster_mass;
-  const bool misfit = report.fit < c.tracking_min_fit;
+  // Only where the map can judge the scan: in a part of the building it lacks, odometry carries.
+  const bool misfit = report.fit < c.tracking_min_fit && report.known >= c.tracking_min_known;
   lost_updates_ = committed && misfit ? lost_updates_ + 1 : 0;
   const int patience = config_.filter.relocalize_after_lost_updates;
   if (patience > 0 && lost_updates_ >= patience) {
@@ -314,7 +315,8 @@ void GridParticleFilter::weigh(const PreparedScan& scan, CorrectionReport& repor
 void GridParticleFilter::assess(const PreparedScan& scan, const PreparedScan& dense, CorrectionReport& report) {
   const StateCriteria& c = config_.state;
   const ParticleCluster& e = *estimate_;
-  report.fit = laser_.fit(e.pose, scan, c.fit_distance);
+  // Hits ending where the map knows nothing (the part of a building it lacks) are not counted.
+  report.fit = laser_.fit(e.pose, scan, c.fit_distance, true, &report.known);
   if (c.tracking_max_see_through < 1.0) {
     report.see_through = laser_.see_through(e.pose, dense, c.see_through_margin, c.see_through_fraction);
   }
@@ -327,10 +329,13 @@ void GridParticleFilter::assess(const PreparedScan& scan, const PreparedScan& de
   const std::string mass_text = "main cluster " + percent(e.mass) + " of the weight";
   if (report.beams == 0) {
     assessment_ = {LocalizationState::kUncertain, "no beam of the scan hit anything within range"};
-  } else if (report.fit < c.lost_max_fit) {
-    assessment_ = {LocalizationState::kLost, fit_text + " < " + percent(c.lost_max_fit)};
   } else if (e.mass < c.lost_max_cluster_mass) {
     assessment_ = {LocalizationState::kLost, mass_text + " < " + percent(c.lost_max_cluster_mass)};
+  } else if (report.known < c.tracking_min_known) {  // the fit is too thin to say lost
+    assessment_ = {LocalizationState::kUncertain, "the map knows where " + percent(report.known) +
+                                                      " of the scan's returns end < " + percent(c.tracking_min_known)};
+  } else if (report.fit < c.lost_max_fit) {
+    assessment_ = {LocalizationState::kLost, fit_text + " < " + percent(c.lost_max_fit)};
   } else if (report.fit < c.tracking_min_fit) {
     assessment_ = {LocalizationState::kUncertain, fit_text + " < " + percent(c.tracking_min_fit)};
   } else if (report.see_through > c.tracking_max_see_through) {
@@ -415,8 +420,12 @@ std::optional<Pose2> GridParticleFilter::checked(const Pose2& candidate, const P
                                                  const PreparedScan& dense, double estimate_fit) const {
   const StateCriteria& c = config_.state;
   const Pose2 pose = refine(candidate, scan);
-  const double fit = laser_.fit(pose, scan, c.fit_distance);
-  if (fit < c.tracking_min_fit || fit < estimate_fit) return std::nullopt;
+  // Every hit counts towards tracking_min_fit (a place the map hardly knows does not pass); the
+  // comparison with the estimate counts the hits in known cells on both sides, as report.fit.
+  if (laser_.fit(pose, scan, c.fit_distance) < c.tracking_min_fit ||
+      laser_.fit(pose, scan, c.fit_distance, true) < estimate_fit) {
+    return std::nullopt;
+  }
   if (std::hypot(pose.x - estimate_->pose.x, pose.y - estimate_->pose.y) < config_.filter.cluster_radius) return std::nullopt;
   if (c.tracking_max_see_through < 1.0 &&
       laser_.see_through(pose, dense, c.see_through_margin, c.see_through_fraction) > c.tracking_max_see_through) {

@@ -55,9 +55,12 @@ void LaserModel::set_search(bool search, double sigma_hit) {
   table_z_max_ = -1.0;  // rebuild the table
 }
 
-double LaserModel::hit_density(double distance, double z_max, double sigma_hit) const {
+double LaserModel::hit_density(double distance, bool unknown, double z_max, double sigma_hit) const {
   const double d = std::min(distance, config_.likelihood_max_dist);
-  return config_.z_hit * std::exp(-d * d / (2.0 * sigma_hit * sigma_hit)) + config_.z_rand / z_max;
+  const double known = config_.z_hit * std::exp(-d * d / (2.0 * sigma_hit * sigma_hit)) + config_.z_rand / z_max;
+  if (!unknown) return known;
+  const double u = config_.unknown_occupancy;
+  return u * (config_.z_hit + config_.z_rand / z_max) + (1.0 - u) * known;
 }
 
 void LaserModel::prepare(const PreparedScan& scan) {
@@ -75,11 +78,13 @@ void LaserModel::prepare(const PreparedScan& scan) {
   const double step = map_->field.step();
   const size_t size = std::min<size_t>(DistanceField::kSaturated,
                                        static_cast<size_t>(std::ceil(config_.likelihood_max_dist / step))) + 1;
-  table_.resize(size);
-  for (size_t u = 0; u < size; ++u) {
-    const double pz = hit_density(static_cast<double>(u) * step, scan.z_max, sigma_hit_);
-    table_[u].term = static_cast<float>(log_domain() ? std::log(pz) : pz * pz * pz);
-    table_[u].measure = static_cast<float>(hit_density(static_cast<double>(u) * step, scan.z_max, config_.sigma_hit));
+  table_.resize(2 * size);
+  for (size_t i = 0; i < table_.size(); ++i) {
+    const double d = static_cast<double>(i % size) * step;
+    const bool unknown = i >= size;
+    const double pz = hit_density(d, unknown, scan.z_max, sigma_hit_);
+    table_[i].term = static_cast<float>(log_domain() ? std::log(pz) : pz * pz * pz);
+    table_[i].measure = static_cast<float>(hit_density(d, unknown, scan.z_max, config_.sigma_hit));
   }
   table_z_max_ = scan.z_max;
 }
@@ -98,8 +103,11 @@ void LaserModel::factors(const std::vector<PoseParticle>& particles, size_t begi
   const float* ey = end_y_.data();
   const size_t hits = end_x_.size();
   const uint16_t* field = map_->field.cells().data();
+  const int8_t* cells = map_->map.cells().data();
   const FieldEntry* table = table_.data();
-  const uint32_t last = static_cast<uint32_t>(table_.size() - 1);
+  const uint32_t entries = static_cast<uint32_t>(table_.size() / 2);  // per kind of cell
+  const uint32_t last = entries - 1;
+  const uint32_t outside = 2 * entries - 1;  // beyond the map: unknown, at the field's saturation
   const unsigned width = static_cast<unsigned>(g.width), height = static_cast<unsigned>(g.height);
   const bool log = log_domain();
   const double per_hit = hits > 0 ? 1.0 / static_cast<double>(hits) : 0.0;
@@ -108,8 +116,8 @@ void LaserModel::factors(const std::vector<PoseParticle>& particles, size_t begi
     const double px = (p.x - g.origin.x()) * inv, py = (p.y - g.origin.y()) * inv;
     float sum = 0.0f, measured = 0.0f;
     if (!(std::abs(px) < 1e6 && std::abs(py) < 1e6)) {  // far off (or not finite): every beam outside
-      sum = table[last].term * static_cast<float>(hits);
-      measured = table[last].measure * static_cast<float>(hits);
+      sum = table[outside].term * static_cast<float>(hits);
+      measured = table[outside].measure * static_cast<float>(hits);
     } else {
       const float x0 = static_cast<float>(px) + 1.0f, y0 = static_cast<float>(py) + 1.0f;
       const float c = static_cast<float>(std::cos(p.theta)), s = static_cast<float>(std::sin(p.theta));
@@ -118,8 +126,11 @@ void LaserModel::factors(const std::vector<PoseParticle>& particles, size_t begi
       const auto beam = [&](size_t k, int lane) {
         const unsigned col = static_cast<unsigned>(static_cast<int>(x0 + c * ex[k] - s * ey[k]) - 1);
         const unsigned row = static_cast<unsigned>(static_cast<int>(y0 + s * ex[k] + c * ey[k]) - 1);
-        uint32_t u = last;  // outside the map: the field's saturation, as AMCL
-        if (col < width && row < height) u = std::min<uint32_t>(field[static_cast<size_t>(row) * width + col], last);
+        uint32_t u = outside;
+        if (col < width && row < height) {
+          const size_t cell = static_cast<size_t>(row) * width + col;
+          u = std::min<uint32_t>(field[cell], last) + (cells[cell] == OccupancyMap::kUnknown ? entries : 0);
+        }
         const FieldEntry entry = table[u];
         sums[lane] += entry.term;
         measures[lane] += entry.measure;
@@ -166,58 +177,72 @@ double LaserModel::factor_direct(const Pose2& pose, const PreparedScan& scan, do
     }
     if (!scan.hit[k]) continue;
     int row = 0, col = 0;
-    const double d = g.index_of(pose.transform(scan.end[k]), row, col) ? map_->field.distance(row, col)
-                                                                       : config_.likelihood_max_dist;
-    const double pz = hit_density(d, scan.z_max, sigma_hit_);
+    const bool inside = g.index_of(pose.transform(scan.end[k]), row, col);
+    const double d = inside ? map_->field.distance(row, col) : config_.likelihood_max_dist;
+    const bool unknown = !inside || map.at(row, col) == OccupancyMap::kUnknown;
+    const double pz = hit_density(d, unknown, scan.z_max, sigma_hit_);
     sum += log_domain() ? std::log(pz) : pz * pz * pz;
-    measured += hit_density(d, scan.z_max, config_.sigma_hit);
+    measured += hit_density(d, unknown, scan.z_max, config_.sigma_hit);
     ++counted;
   }
   if (mean_pz) *mean_pz = counted > 0 ? measured / static_cast<double>(counted) : 0.0;
   return log_domain() ? sum : 1.0 + sum;
 }
 
-double LaserModel::fit(const Pose2& pose, const PreparedScan& scan, double distance) const {
+double LaserModel::fit(const Pose2& pose, const PreparedScan& scan, double distance, bool known_only,
+                       double* counted) const {
   const GridGeometry& g = map_->map.geometry();
-  size_t hits = 0, close = 0;
+  const double inv = 1.0 / g.resolution;
+  const Eigen::Vector2d start = (pose.transform(scan.sensor_position) - g.origin) * inv;
+  size_t all = 0, hits = 0, close = 0;
   for (size_t k = 0; k < scan.end.size(); ++k) {
     if (!scan.hit[k]) continue;
-    ++hits;
+    ++all;
     int row = 0, col = 0;
-    if (g.index_of(pose.transform(scan.end[k]), row, col) && map_->field.distance(row, col) <= distance) ++close;
+    const bool inside = g.index_of(pose.transform(scan.end[k]), row, col);
+    const bool fits = inside && map_->field.distance(row, col) <= distance;
+    if (known_only && !fits && (!inside || map_->map.at(row, col) == OccupancyMap::kUnknown) &&
+        !meets_wall(start, pose.theta + scan.bearing[k], scan.range[k] * inv)) {
+      continue;
+    }
+    ++hits;
+    if (fits) ++close;
   }
+  if (counted) *counted = all > 0 ? static_cast<double>(hits) / static_cast<double>(all) : 0.0;
   return hits > 0 ? static_cast<double>(close) / static_cast<double>(hits) : 0.0;
 }
 
-double LaserModel::see_through(const Pose2& pose, const PreparedScan& scan, double margin, double fraction) const {
-  // Each ray skips free space over the distance field (sphere tracing): from a point in a cell
+bool LaserModel::meets_wall(const Eigen::Vector2d& start, double angle, double end) const {
+  // The ray skips free space over the distance field (sphere tracing): from a point in a cell
   // whose centre lies D cells from the nearest occupied cell's centre, no occupied cell meets the
   // ray within D - sqrt(2) cells. Within a cell or so of a wall it goes on cell by cell
   // (OccupancyMap::cast), so the answer is cast's over the whole ray.
   const OccupancyMap& map = map_->map;
   const GridGeometry& g = map.geometry();
   const DistanceField& field = map_->field;
+  constexpr double kUnit = 1.0 / DistanceField::kSubdivision;  // cells per field unit
+  const Eigen::Vector2d dir(std::cos(angle), std::sin(angle));
+  for (double t = 0.0; t < end;) {
+    const Eigen::Vector2d p = start + t * dir;
+    const bool inside = p.x() >= 0.0 && p.y() >= 0.0 && p.x() < g.width && p.y() < g.height;
+    // Off the grid cast clips the ray to it (it may come back in).
+    const double clear = inside ? field.at(static_cast<int>(p.y()), static_cast<int>(p.x())) * kUnit - M_SQRT2 : 0.0;
+    if (clear < 1.0) return cast(map, g.origin + p * g.resolution, angle, (end - t) * g.resolution).has_value();
+    t += clear;
+  }
+  return false;
+}
+
+double LaserModel::see_through(const Pose2& pose, const PreparedScan& scan, double margin, double fraction) const {
+  const GridGeometry& g = map_->map.geometry();
   const double inv = 1.0 / g.resolution;
   const Eigen::Vector2d start = (pose.transform(scan.sensor_position) - g.origin) * inv;
-  constexpr double kUnit = 1.0 / DistanceField::kSubdivision;  // cells per field unit
   size_t hits = 0, through = 0;
   for (size_t k = 0; k < scan.range.size(); ++k) {
     if (!scan.hit[k]) continue;
     ++hits;
     const double end = ((1.0 - fraction) * scan.range[k] - margin) * inv;  // cells
-    const double angle = pose.theta + scan.bearing[k];
-    const Eigen::Vector2d dir(std::cos(angle), std::sin(angle));
-    for (double t = 0.0; t < end;) {
-      const Eigen::Vector2d p = start + t * dir;
-      const bool inside = p.x() >= 0.0 && p.y() >= 0.0 && p.x() < g.width && p.y() < g.height;
-      // Off the grid cast clips the ray to it (it may come back in).
-      const double clear = inside ? field.at(static_cast<int>(p.y()), static_cast<int>(p.x())) * kUnit - M_SQRT2 : 0.0;
-      if (clear < 1.0) {
-        through += cast(map, g.origin + p * g.resolution, angle, (end - t) * g.resolution).has_value();
-        break;
-      }
-      t += clear;
-    }
+    through += meets_wall(start, pose.theta + scan.bearing[k], end);
   }
   return hits > 0 ? static_cast<double>(through) / static_cast<double>(hits) : 0.0;
 }

@@ -40,6 +40,10 @@ struct LaserModelConfig {
   double sigma_hit = 0.2;             // m
   double lambda_short = 0.1;          // 1/m, beam model only
   double likelihood_max_dist = 2.0;   // laser_likelihood_max_dist, m: the field saturates here
+  // locd: a beam ending in a cell the map does not know (map_server's unknown, or beyond the map)
+  // is scored as a wall there with this probability, else as the known field says:
+  // pz = u pz(0) + (1 - u) pz(d). 0: as AMCL, the distance to the nearest obstacle only.
+  double unknown_occupancy = 0.0;
   // While the filter is lost its field is this wide, while uncertain with the set still spread
   // sqrt(sigma_hit x this), so particles far from any sampled pose still pull the set towards the
   // truth (annealing); 0 (or sigma_hit): always sigma_hit, as AMCL.
@@ -84,7 +88,11 @@ struct FilterConfig {
 // When the plugin says tracking, uncertain or lost (README: "Localization state").
 struct StateCriteria {
   double fit_distance = 0.2;          // m: a beam "fits" when its end lies this close to an obstacle
-  double tracking_min_fit = 0.5;      // share of fitting beams for tracking
+  double tracking_min_fit = 0.5;      // share of fitting beams for tracking (of those the map knows)
+  // Share of the scan's hits the map can judge (ending in a known cell, near an obstacle, or
+  // beyond one of its walls) for tracking: where the map lacks most of what the scan sees the
+  // pose rests on odometry (bench/realdata, intel: the unmapped corridor).
+  double tracking_min_known = 0.5;
   double lost_max_fit = 0.25;         // below: lost
   double tracking_min_cluster_mass = 0.5;  // weight of the main cluster for tracking
   double lost_max_cluster_mass = 0.1;      // below: lost

@@ -3,7 +3,9 @@
 //
 //   likelihood_field       Table 6.3's field: pz = z_hit exp(-d^2 / (2 sigma_hit^2)) + z_rand / z_max,
 //                          d the distance from the beam's end to the nearest obstacle (saturating at
-//                          laser_likelihood_max_dist, or beyond the map). Weight factor as AMCL:
+//                          laser_likelihood_max_dist, or beyond the map); a beam ending in an
+//                          unknown cell or beyond the map scores u pz(0) + (1 - u) pz(d), u =
+//                          unknown_occupancy (locd; 0 as AMCL). Weight factor as AMCL:
 //                          1 + sum over beams of pz^3 (robust to unmodelled obstacles)
 //   likelihood_field_prob  the same pz, as Table 6.3's product over beams (sharper, log domain)
 //   beam                   Table 6.1's mixture along a ray cast on the grid: z_hit N(z*, sigma_hit^2)
@@ -58,23 +60,33 @@ class LaserModel {
   // One pose, the direct formula (exp per beam, no table): the reference the fast path is tested
   // against. Same domain as factors().
   double factor_direct(const Pose2& pose, const PreparedScan& scan, double* mean_pz = nullptr) const;
-  // Share of the scan's hits whose end lies within `distance` of an obstacle at this pose.
-  double fit(const Pose2& pose, const PreparedScan& scan, double distance) const;
+  // Share of the scan's hits whose end lies within `distance` of an obstacle at this pose. With
+  // known_only, a hit that ends away from any obstacle in a cell the map does not know (unknown,
+  // or beyond the map), reached without passing an occupied cell, is not counted: it neither
+  // agrees nor disagrees with the map (the part of a building the map lacks). One that passed
+  // through a wall of the map is counted (a wrong pose). A scan with no counted hit fits 0.
+  // `counted`: the share of the hits counted.
+  double fit(const Pose2& pose, const PreparedScan& scan, double distance, bool known_only = false,
+             double* counted = nullptr) const;
   // The share of the scan's returns that, cast from `pose`, meet an occupied cell of the map more
   // than `margin` + `fraction` of their range before their end: the laser saw through a wall the
   // map puts there.
   double see_through(const Pose2& pose, const PreparedScan& scan, double margin, double fraction) const;
 
   const LaserModelConfig& config() const { return config_; }
-  size_t table_size() const { return table_.size(); }
+  size_t table_size() const { return table_.size(); }  // entries, known and unknown cells
   // For the next prepare(): the configured model, or while the filter searches (lost, uncertain)
   // AMCL's likelihood_field (1 + sum pz^3) with a wider field.
   void set_search(bool search, double sigma_hit);
   LaserModelType type() const { return type_; }
 
  private:
-  double hit_density(double distance, double z_max, double sigma_hit) const;  // pz of the field
+  // pz of the field at a beam end `distance` from the nearest obstacle, in a known or unknown cell.
+  double hit_density(double distance, bool unknown, double z_max, double sigma_hit) const;
   double beam_pz(double measured, double expected, double z_max) const;
+  // Whether the ray from `start` (grid cell units) along `angle` meets an occupied cell within
+  // `end` cells.
+  bool meets_wall(const Eigen::Vector2d& start, double angle, double end) const;
 
   std::shared_ptr<const SharedMap> map_;
   LaserModelConfig config_;
@@ -86,7 +98,7 @@ class LaserModel {
     float term;     // pz^3, or log pz, at sigma_hit_
     float measure;  // pz at the configured sigma_hit
   };
-  std::vector<FieldEntry> table_;  // by DistanceField unit
+  std::vector<FieldEntry> table_;  // by DistanceField unit, for known cells, then for unknown ones
 };
 
 }  // namespace locd::grid_mcl
