@@ -167,19 +167,30 @@ TEST(GridMclSeeThrough, MarchOverTheFieldAgreesWithCastingEveryBeam) {
   EXPECT_GT(mean, 0.2) << "wrong poses see through the room's walls";
 }
 
-TEST(GridMclLikelihoodField, OneBeamByHand) {
+// The by-hand cases' field (z_hit 0.8, z_rand 0.2, sigma_hit 0.1) and their one beam: 1 m
+// straight ahead, z_max 8 m.
+LaserModelConfig by_hand_field() {
   LaserModelConfig config;
   config.type = LaserModelType::kLikelihoodField;
   config.z_hit = 0.8;
   config.z_rand = 0.2;
   config.sigma_hit = 0.1;
-  LaserModel model(room(), config);
+  return config;
+}
+
+PreparedScan one_beam_ahead() {
   PreparedScan scan;
   scan.z_max = 8.0;
   scan.range = {1.0};
   scan.bearing = {0.0};
   scan.hit = {1};
   scan.end = {Eigen::Vector2d(1.0, 0.0)};
+  return scan;
+}
+
+TEST(GridMclLikelihoodField, OneBeamByHand) {
+  LaserModel model(room(), by_hand_field());
+  const PreparedScan scan = one_beam_ahead();
   model.prepare(scan);
   // From (8.9, 1, 0) the beam ends at (9.9, 1), a cell centre 0.1 m from the wall's (x = 10).
   const double d = 0.1;
@@ -195,19 +206,10 @@ TEST(GridMclLikelihoodField, OneBeamByHand) {
 // unknown_occupancy u: a beam ending in an unknown cell is a wall there with probability u,
 // pz = u (z_hit + z_rand / z_max) + (1 - u) pz(d); beyond the map d saturates.
 TEST(GridMclLikelihoodField, ABeamEndingInUnknownSpaceByHand) {
-  LaserModelConfig config;
-  config.type = LaserModelType::kLikelihoodField;
-  config.z_hit = 0.8;
-  config.z_rand = 0.2;
-  config.sigma_hit = 0.1;
+  LaserModelConfig config = by_hand_field();
   config.unknown_occupancy = 0.5;
   LaserModel model(room(), config);
-  PreparedScan scan;
-  scan.z_max = 8.0;
-  scan.range = {1.0};
-  scan.bearing = {0.0};
-  scan.hit = {1};
-  scan.end = {Eigen::Vector2d(1.0, 0.0)};
+  const PreparedScan scan = one_beam_ahead();
   model.prepare(scan);
   const auto known = [](double d) { return 0.8 * std::exp(-d * d / (2 * 0.1 * 0.1)) + 0.2 / 8.0; };
   const auto cube = [](double x) { return x * x * x; };
