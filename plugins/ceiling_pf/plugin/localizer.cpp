@@ -6,6 +6,7 @@
 #include <opencv2/core.hpp>
 
 #include "locd/ceiling_pf/velocity_motion_model.hpp"
+#include "locd/sdk/initial_pose.hpp"
 #include "params.hpp"
 
 namespace locd::ceiling_pf {
@@ -64,14 +65,9 @@ void CeilingPfLocalizer::configure(const PluginContext& context, const Params& p
 }
 
 void CeilingPfLocalizer::set_pose(const PoseEstimate& pose) {
-  const Pose2 mean = Pose2::from_isometry(pose.pose);
-  if (!std::isfinite(mean.x) || !std::isfinite(mean.y) || !std::isfinite(mean.theta)) {
-    throw InputError("initial pose: position and yaw must be finite");
-  }
-  Eigen::Matrix3d cov = planar_covariance(pose.covariance);
-  const Eigen::LLT<Eigen::Matrix3d> llt(cov);
-  if (!cov.allFinite() || llt.info() != Eigen::Success) cov = diagonal_variance(config_.initial_stddev);
-  filter_->set_pose(mean, cov);
+  const PlanarInitialPose start = planar_initial_pose(pose, "ceiling_pf");
+  filter_->set_pose(start.mean, start.covariance_positive_definite ? start.covariance
+                                                                   : diagonal_variance(config_.initial_stddev));
   explained_.clear();
 }
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <string>
 
+#include "locd/sdk/initial_pose.hpp"
 #include "params.hpp"
 
 namespace locd::feature_ekf {
@@ -17,11 +18,9 @@ constexpr double kPositionVarianceFloor = 1e-6;
 // The (x, y, yaw) block of a pose's covariance, symmetrised; InputError unless finite and
 // positive semi-definite.
 Eigen::Matrix3d checked_planar_covariance(const PoseEstimate& estimate) {
-  Eigen::Matrix3d P = planar_covariance(estimate.covariance);
-  if (!Pose2::from_isometry(estimate.pose).vector().allFinite() || !P.allFinite()) {
-    throw InputError("feature_ekf: initial pose or covariance is not finite");
-  }
-  P = 0.5 * (P + P.transpose()).eval();
+  const PlanarInitialPose start = planar_initial_pose(estimate, "feature_ekf");
+  if (!start.covariance_finite) throw InputError("feature_ekf: initial covariance is not finite");
+  const Eigen::Matrix3d& P = start.covariance;
   if (P.diagonal().minCoeff() < 0.0 ||
       Eigen::LLT<Eigen::Matrix3d>(P + kSemiDefiniteSlack * Eigen::Matrix3d::Identity()).info() != Eigen::Success) {
     throw InputError("feature_ekf: initial covariance (x, y, yaw entries) is not positive semi-definite");

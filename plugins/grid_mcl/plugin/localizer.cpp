@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <limits>
 
+#include "locd/sdk/initial_pose.hpp"
 #include "params.hpp"
 
 namespace locd::grid_mcl {
@@ -60,21 +61,16 @@ void GridMclLocalizer::configure(const PluginContext& context, const Params& par
 }
 
 void GridMclLocalizer::set_pose(const PoseEstimate& pose) {
-  const Pose2 mean = Pose2::from_isometry(pose.pose);
-  if (!std::isfinite(mean.x) || !std::isfinite(mean.y) || !std::isfinite(mean.theta)) {
-    throw InputError("initial pose: position and yaw must be finite");
-  }
-  Eigen::Matrix3d cov = planar_covariance(pose.covariance);
+  const PlanarInitialPose start = planar_initial_pose(pose, "grid_mcl");
+  const Eigen::Matrix3d& cov = start.covariance;
   const double global = config_.global_localization_stddev * config_.global_localization_stddev;
-  if (std::isfinite(cov(0, 0)) && std::isfinite(cov(1, 1)) && std::max(cov(0, 0), cov(1, 1)) >= global) {
+  if (start.covariance_finite && std::max(cov(0, 0), cov(1, 1)) >= global) {
     filter_->set_global();
     waiting_.reset();
     state_reported_ = false;
     return;
   }
-  const Eigen::LLT<Eigen::Matrix3d> llt(cov);
-  if (!cov.allFinite() || llt.info() != Eigen::Success) cov = diagonal_variance(config_.initial_stddev);
-  filter_->set_pose(mean, cov);
+  filter_->set_pose(start.mean, start.covariance_positive_definite ? cov : diagonal_variance(config_.initial_stddev));
   waiting_.reset();
   state_reported_ = false;
 }

@@ -11,6 +11,7 @@
 #include "locd/emoi_markov/emoi_cache.hpp"
 #include "locd/sdk/errors.hpp"
 #include "locd/sdk/geometry.hpp"
+#include "locd/sdk/initial_pose.hpp"
 
 namespace locd::emoi {
 namespace {
@@ -91,10 +92,9 @@ EmoiMarkovFilter::EmoiMarkovFilter(const EmoiMarkovConfig& config, ElevationMap 
 }
 
 void EmoiMarkovFilter::set_pose(const PoseEstimate& pose) {
-  if (!pose.pose.matrix().allFinite() || !pose.covariance.allFinite()) {
-    throw InputError("initial pose has a NaN or infinite value");
-  }
-  const Eigen::Vector2d xy = pose.pose.translation().head<2>();
+  const PlanarInitialPose start = planar_initial_pose(pose, "emoi_markov");
+  if (!start.covariance_finite) throw InputError("emoi_markov: initial covariance (x, y, yaw entries) is not finite");
+  const Eigen::Vector2d xy(start.mean.x, start.mean.y);
   int row = 0, col = 0;
   const GridGeometry& g = grid_->geometry();
   if (!g.index_of(xy, row, col)) {
@@ -103,14 +103,14 @@ void EmoiMarkovFilter::set_pose(const PoseEstimate& pose) {
                      format_number(g.origin.x() + g.width * g.resolution) + "] x [" + format_number(g.origin.y()) +
                      ", " + format_number(g.origin.y() + g.height * g.resolution) + "]");
   }
-  const double yaw = yaw_of(pose.pose.linear());
+  const double yaw = start.mean.theta;
   if (last_odometry_) {
     yaw_offset_ = normalize_angle(yaw - yaw_of(last_odometry_->pose.linear()));
   } else {
     pending_set_pose_yaw_ = yaw;
   }
   if (config_.use_initial_pose) {
-    const double stddev = std::sqrt(std::max({pose.covariance(0, 0), pose.covariance(1, 1), 0.0}));
+    const double stddev = std::sqrt(std::max({start.covariance(0, 0), start.covariance(1, 1), 0.0}));
     grid_->set_gaussian(xy, stddev);
     summary_ = grid_->summary();
     assessment_ = assess_belief(grid_->belief(), grid_->occupied(), grid_->geometry(), config_.assessment);
