@@ -236,6 +236,10 @@ TEST(DistanceField, MatchesBruteForceWithinItsQuantum) {
   for (int r = 0; r < map.geometry().height; ++r) {
     for (int c = 0; c < map.geometry().width; ++c) {
       EXPECT_NEAR(field.distance(r, c), brute_force_distance(map, r, c), 0.5 * quantum + 1e-12) << r << " " << c;
+      // The raw cell carries whether the map's cell is unknown beside the distance.
+      const uint16_t code = field.cells()[static_cast<size_t>(r) * map.geometry().width + c];
+      EXPECT_EQ((code & DistanceField::kUnknownBit) != 0, map.at(r, c) == OccupancyMap::kUnknown) << r << " " << c;
+      EXPECT_EQ(code & DistanceField::kSaturated, field.at(r, c));
     }
   }
   // No occupied cell at all: saturated everywhere.

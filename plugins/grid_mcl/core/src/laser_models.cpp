@@ -75,13 +75,13 @@ void LaserModel::prepare(const PreparedScan& scan) {
     end_y_.push_back(static_cast<float>(scan.end[k].y() * inv));
   }
   if (scan.z_max == table_z_max_) return;
+  // One entry per field code (distance units, and the unknown bit): the fast path indexes it
+  // with the code as it is. hit_density saturates at laser_likelihood_max_dist.
   const double step = map_->field.step();
-  const size_t size = std::min<size_t>(DistanceField::kSaturated,
-                                       static_cast<size_t>(std::ceil(config_.likelihood_max_dist / step))) + 1;
-  table_.resize(2 * size);
+  table_.resize(DistanceField::kCodes);
   for (size_t i = 0; i < table_.size(); ++i) {
-    const double d = static_cast<double>(i % size) * step;
-    const bool unknown = i >= size;
+    const double d = static_cast<double>(i & DistanceField::kSaturated) * step;
+    const bool unknown = (i & DistanceField::kUnknownBit) != 0;
     const double pz = hit_density(d, unknown, scan.z_max, sigma_hit_);
     table_[i].term = static_cast<float>(log_domain() ? std::log(pz) : pz * pz * pz);
     table_[i].measure = static_cast<float>(hit_density(d, unknown, scan.z_max, config_.sigma_hit));
@@ -103,11 +103,8 @@ void LaserModel::factors(const std::vector<PoseParticle>& particles, size_t begi
   const float* ey = end_y_.data();
   const size_t hits = end_x_.size();
   const uint16_t* field = map_->field.cells().data();
-  const int8_t* cells = map_->map.cells().data();
   const FieldEntry* table = table_.data();
-  const uint32_t entries = static_cast<uint32_t>(table_.size() / 2);  // per kind of cell
-  const uint32_t last = entries - 1;
-  const uint32_t outside = 2 * entries - 1;  // beyond the map: unknown, at the field's saturation
+  const uint32_t outside = DistanceField::kUnknownBit | DistanceField::kSaturated;  // beyond the map
   const unsigned width = static_cast<unsigned>(g.width), height = static_cast<unsigned>(g.height);
   const bool log = log_domain();
   const double per_hit = hits > 0 ? 1.0 / static_cast<double>(hits) : 0.0;
@@ -126,12 +123,8 @@ void LaserModel::factors(const std::vector<PoseParticle>& particles, size_t begi
       const auto beam = [&](size_t k, int lane) {
         const unsigned col = static_cast<unsigned>(static_cast<int>(x0 + c * ex[k] - s * ey[k]) - 1);
         const unsigned row = static_cast<unsigned>(static_cast<int>(y0 + s * ex[k] + c * ey[k]) - 1);
-        uint32_t u = outside;
-        if (col < width && row < height) {
-          const size_t cell = static_cast<size_t>(row) * width + col;
-          u = std::min<uint32_t>(field[cell], last) + (cells[cell] == OccupancyMap::kUnknown ? entries : 0);
-        }
-        const FieldEntry entry = table[u];
+        const uint32_t code = col < width && row < height ? field[static_cast<size_t>(row) * width + col] : outside;
+        const FieldEntry entry = table[code];
         sums[lane] += entry.term;
         measures[lane] += entry.measure;
       };

@@ -71,8 +71,8 @@ DistanceField::DistanceField(const OccupancyMap& map)
     squared_distance_1d(f, d, v, z);
     for (int c = 0; c < w; ++c) {
       const double units = std::sqrt(d[c]) * kSubdivision;
-      cells_[static_cast<size_t>(r) * w + c] =
-          units >= kSaturated ? kSaturated : static_cast<uint16_t>(std::lround(units));
+      const uint16_t distance = units >= kSaturated ? kSaturated : static_cast<uint16_t>(std::lround(units));
+      cells_[static_cast<size_t>(r) * w + c] = map.at(r, c) == OccupancyMap::kUnknown ? distance | kUnknownBit : distance;
     }
   }
 }

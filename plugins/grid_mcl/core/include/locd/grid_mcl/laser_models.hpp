@@ -74,7 +74,7 @@ class LaserModel {
   double see_through(const Pose2& pose, const PreparedScan& scan, double margin, double fraction) const;
 
   const LaserModelConfig& config() const { return config_; }
-  size_t table_size() const { return table_.size(); }  // entries, known and unknown cells
+  size_t table_size() const { return table_.size(); }  // entries: one per DistanceField code
   // For the next prepare(): the configured model, or while the filter searches (lost, uncertain)
   // AMCL's likelihood_field (1 + sum pz^3) with a wider field.
   void set_search(bool search, double sigma_hit);
@@ -98,7 +98,7 @@ class LaserModel {
     float term;     // pz^3, or log pz, at sigma_hit_
     float measure;  // pz at the configured sigma_hit
   };
-  std::vector<FieldEntry> table_;  // by DistanceField unit, for known cells, then for unknown ones
+  std::vector<FieldEntry> table_;  // by DistanceField code (distance units, unknown bit)
 };
 
 }  // namespace locd::grid_mcl

@@ -3,8 +3,10 @@
 //
 // DistanceField: for every cell the Euclidean distance from its centre to the nearest occupied
 // cell's centre, exact (Felzenszwalb & Huttenlocher, "Distance Transforms of Sampled
-// Functions", 2012: the lower envelope of parabolas, by columns then rows), stored as uint16 in
-// 1/16 of a cell (3 mm at 0.05 m cells) and saturating at 65535. The likelihood field's
+// Functions", 2012: the lower envelope of parabolas, by columns then rows), stored in 12 bits in
+// 1/16 of a cell (3 mm at 0.05 m cells), saturating at 4095 (255 cells: 12.8 m at 0.05 m cells,
+// beyond any field's laser_likelihood_max_dist of interest); the 13th bit says the map's cell is
+// unknown. The likelihood field's fast path indexes its table with that code as it is. The likelihood field's
 // per-session table (sigma_hit, z_hit, z_rand, laser_likelihood_max_dist) is indexed by it, so
 // sessions with different parameters share one field.
 //
@@ -26,13 +28,16 @@ namespace locd::grid_mcl {
 class DistanceField {
  public:
   static constexpr int kSubdivision = 16;  // units per cell
-  static constexpr uint16_t kSaturated = 65535;
+  static constexpr uint16_t kSaturated = 0x0FFF;
+  static constexpr uint16_t kUnknownBit = 0x1000;  // the map's cell is unknown
+  static constexpr size_t kCodes = 0x2000;         // distinct codes: distances, known or unknown
 
   DistanceField() = default;
   explicit DistanceField(const OccupancyMap& map);
 
-  uint16_t at(int row, int col) const { return cells_[static_cast<size_t>(row) * width_ + col]; }
+  uint16_t at(int row, int col) const { return cells_[static_cast<size_t>(row) * width_ + col] & kSaturated; }
   double distance(int row, int col) const { return at(row, col) * step_; }  // m
+  // Per cell the distance in units, with kUnknownBit set where the map's cell is unknown.
   const std::vector<uint16_t>& cells() const { return cells_; }
   double step() const { return step_; }  // m per unit
 
