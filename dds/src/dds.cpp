@@ -20,8 +20,22 @@ void Entity::reset() {
   handle_ = 0;
 }
 
+namespace {
+
+// Cyclone announces the process name, pid and host name of every participant in its discovery
+// data, in clear even with DDS Security (participant discovery is not protected). Empty values
+// in the participant's own QoS take their place. The host name also travels in Cyclone's
+// version information of the same message, which no setting of this Cyclone (0.10) removes.
+std::unique_ptr<dds_qos_t, QosDeleter> participant_qos() {
+  std::unique_ptr<dds_qos_t, QosDeleter> qos(dds_create_qos());
+  for (const char* property : {"__ProcessName", "__Pid", "__Hostname"}) dds_qset_prop(qos.get(), property, "");
+  return qos;
+}
+
+}  // namespace
+
 Participant::Participant(dds_domainid_t domain)
-    : Entity(check(dds_create_participant(domain, nullptr, nullptr),
+    : Entity(check(dds_create_participant(domain, participant_qos().get(), nullptr),
                    ("create participant on domain " + std::to_string(domain) +
                     " (CYCLONEDDS_URI=" + config_uri() + ")").c_str())) {}
 

@@ -32,7 +32,7 @@ inline std::string read_text(const std::filesystem::path& file) {
 //   124-129 Foxglove view, MCAP record/replay; 128 view access (tokens, origins)
 //   130-139 grid_mcl                        140-149 ROS 2 and Fast DDS interoperability
 //   150-179 fleet                           180-189 honest accuracy
-//   190-199 addressing (partitions, robot ids)  205 session pinning  206-207 request floods (rate limits)  210 encrypted RTPS messages (security)
+//   190-199 addressing (partitions, robot ids)  205 session pinning  206-207 request floods (rate limits)  208 discovery data  210 encrypted RTPS messages (security)
 //   223-227 worker faults and restarts (issue 27)  228-230 fleet stall, ownership; 229 FleetHosts stall
 //   217-222 ROS 2 as a Nav2 AMCL drop-in (issue 24)
 //   213-216 ROS 2 bag replay (issue 21; DDS allows domain ids up to 232 only)

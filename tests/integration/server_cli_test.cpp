@@ -1,11 +1,13 @@
 // The locd executable itself: --help, --check-config (exit 0/1 with the error), a boot session
 // that runs with no client, ServerInfo, the initial pose topic, a plugin switch over DDS, and a
-// clean exit on SIGINT. Each DDS TEST has its own domain id (60-69).
+// clean exit on SIGINT; what locd announces in participant discovery. Each DDS TEST has its own
+// domain id (60-69, 208).
 #include <gtest/gtest.h>
 
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <mutex>
 #include <thread>
 
@@ -310,3 +312,67 @@ TEST(ServerCli, SwitchOverDdsHandsThePoseToTheNewPlugin) {
 }
 
 }  // namespace
+
+// What a listener on the network learns from participant discovery, which travels in clear even
+// with DDS Security: locd's participant (and every participant of locd's DDS layer) announces no
+// process name, pid or host name among its properties, as Cyclone does by default (issue 23).
+// Read with Cyclone's own API, not locd's. The host name still travels in Cyclone's version
+// information (README "Securing a fleet").
+TEST(ServerDiscovery, LocdAnnouncesNoProcessNamePidOrHostName) {
+  constexpr int kDomain = 208;
+  TempDir dir("locd_discovery");
+  const auto config = dir.write("locd.yaml", base_config(kDomain) + "server_id: discovery-test\n");
+  ChildProcess locd(locd_path(), {"--config", config.string()}, (dir.path() / "locd.log").string());
+  const dds_entity_t listener = dds_create_participant(kDomain, nullptr, nullptr);
+  ASSERT_GT(listener, 0);
+  dds_guid_t own{};
+  ASSERT_EQ(dds_get_guid(listener, &own), DDS_RETCODE_OK);
+  const dds_entity_t reader = dds_create_reader(listener, DDS_BUILTIN_TOPIC_DCPSPARTICIPANT, nullptr, nullptr);
+  ASSERT_GT(reader, 0);
+  // The other participants seen, each with the properties it announced.
+  std::map<std::string, std::map<std::string, std::string>> seen;
+  const auto deadline = std::chrono::steady_clock::now() + kTimeout;
+  bool default_listener_seen = false;
+  while (std::chrono::steady_clock::now() < deadline && (seen.empty() || !default_listener_seen)) {
+    void* samples[8] = {nullptr};
+    dds_sample_info_t infos[8];
+    const int n = dds_take(reader, samples, infos, 8, 8);
+    for (int i = 0; i < n; ++i) {
+      if (!infos[i].valid_data) continue;
+      const auto* p = static_cast<const dds_builtintopic_participant_t*>(samples[i]);
+      std::map<std::string, std::string> properties;
+      uint32_t count = 0;
+      char** names = nullptr;
+      if (p->qos != nullptr && dds_qget_propnames(p->qos, &count, &names)) {
+        for (uint32_t k = 0; k < count; ++k) {
+          char* value = nullptr;
+          if (dds_qget_prop(p->qos, names[k], &value)) {
+            properties[names[k]] = value;
+            dds_free(value);
+          }
+          dds_free(names[k]);
+        }
+        dds_free(names);
+      }
+      if (std::memcmp(p->key.v, own.v, sizeof(own.v)) == 0) {
+        // The listener's own data, with Cyclone's defaults: the check below can see them.
+        default_listener_seen = properties.count("__Pid") == 1 && !properties["__Pid"].empty();
+        continue;
+      }
+      seen[std::string(reinterpret_cast<const char*>(p->key.v), sizeof(p->key.v))] = properties;
+    }
+    if (n > 0) dds_return_loan(reader, samples, n);
+    std::this_thread::sleep_for(50ms);
+  }
+  dds_delete(listener);
+  ASSERT_TRUE(default_listener_seen) << "a participant with Cyclone's defaults announces its pid";
+  ASSERT_FALSE(seen.empty()) << "locd's participant was not discovered: " << locd.output();
+  for (const auto& [guid, properties] : seen) {
+    for (const char* name : {"__ProcessName", "__Pid", "__Hostname"}) {
+      const auto at = properties.find(name);
+      EXPECT_TRUE(at == properties.end() || at->second.empty()) << name << " = '" << at->second << "'";
+    }
+  }
+  locd.signal(SIGINT);
+  EXPECT_EQ(locd.wait(10s), 0);
+}
