@@ -369,7 +369,9 @@ std::optional<Pose2> GridParticleFilter::follow_hypotheses(const PreparedScan& s
   uncertain_updates_ = assessment_.state == LocalizationState::kTracking ? std::max(0, uncertain_updates_ - 1)
                                                                           : uncertain_updates_ + 1;
   const bool committed = estimate_->mass >= c.tracking_min_cluster_mass;
-  const bool fails = report.fit < c.tracking_min_fit || report.see_through > c.tracking_max_see_through;
+  // The fit as the relocalization reads it: only where the map can judge the scan.
+  const bool misfit = report.fit < c.tracking_min_fit && report.known >= c.tracking_min_known;
+  const bool fails = misfit || report.see_through > c.tracking_max_see_through;
   if (!committed || !fails || report.beams == 0) {
     hypotheses_.clear();
     return std::nullopt;
