@@ -39,7 +39,8 @@ struct LaserModelConfig {
   double z_rand = 0.5;
   double sigma_hit = 0.2;             // m
   double lambda_short = 0.1;          // 1/m, beam model only
-  double likelihood_max_dist = 2.0;   // laser_likelihood_max_dist, m: the field saturates here (and at 255 cells: DistanceField)
+  double likelihood_max_dist = 2.0;   // laser_likelihood_max_dist, m: the field saturates here
+                                      // (and at 255 cells in any case: DistanceField)
   // locd: a beam ending in a cell the map does not know (map_server's unknown, or beyond the map)
   // is scored as a wall there with this probability, else as the known field says:
   // pz = u pz(0) + (1 - u) pz(d). 0: as AMCL, the distance to the nearest obstacle only.

@@ -6,9 +6,9 @@
 // Functions", 2012: the lower envelope of parabolas, by columns then rows), stored in 12 bits in
 // 1/16 of a cell (3 mm at 0.05 m cells), saturating at 4095 (255 cells: 12.8 m at 0.05 m cells,
 // beyond any field's laser_likelihood_max_dist of interest); the 13th bit says the map's cell is
-// unknown. The likelihood field's fast path indexes its table with that code as it is. The likelihood field's
-// per-session table (sigma_hit, z_hit, z_rand, laser_likelihood_max_dist) is indexed by it, so
-// sessions with different parameters share one field.
+// unknown. The likelihood field's per-session table (sigma_hit, z_hit, z_rand,
+// laser_likelihood_max_dist, unknown_occupancy) is indexed by that code as it is, so sessions
+// with different parameters share one field.
 //
 // load_shared_map keeps a process-wide cache keyed by the YAML's and the image's canonical paths,
 // modification times and sizes; entries are weak_ptrs, so a map leaves memory with its last
