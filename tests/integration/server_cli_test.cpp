@@ -317,7 +317,7 @@ TEST(ServerCli, SwitchOverDdsHandsThePoseToTheNewPlugin) {
 // with DDS Security: locd's participant (and every participant of locd's DDS layer) announces no
 // process name, pid or host name among its properties, as Cyclone does by default (issue 23).
 // Read with Cyclone's own API, not locd's. The host name still travels in Cyclone's version
-// information (README "Securing a fleet").
+// information (README "Security").
 TEST(ServerDiscovery, LocdAnnouncesNoProcessNamePidOrHostName) {
   constexpr int kDomain = 208;
   TempDir dir("locd_discovery");
