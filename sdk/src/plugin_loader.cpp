@@ -112,53 +112,10 @@ LocalizerPtr PluginLibrary::create() const {
 // ------------------------------------------------------------------------- PluginCatalog
 
 PluginCatalog::PluginCatalog(const std::vector<fs::path>& directories, uint32_t supported_kinds) {
-  for (const auto& dir : directories) {
-    std::error_code ec;
-    if (!fs::is_directory(dir, ec)) {
-      rejected_.push_back(dir.string() + ": plugin directory does not exist");
-      continue;
-    }
-    std::vector<fs::path> files;
-    for (const auto& entry : fs::directory_iterator(dir, ec)) {
-      if (entry.is_regular_file() && entry.path().extension() == ".so") files.push_back(entry.path());
-    }
-    std::sort(files.begin(), files.end());
-    for (const auto& file : files) {
-      try {
-        auto library = PluginLibrary::open(file, supported_kinds);
-        const std::string name = library->name();
-        if (plugins_.count(name)) {
-          rejected_.push_back(file.string() + ": plugin '" + name + "' already loaded from " +
-                              plugins_.at(name)->file().string());
-          continue;
-        }
-        plugins_.emplace(name, std::move(library));
-      } catch (const PluginLoadError& e) {
-        rejected_.push_back(e.what());
-      }
-    }
-  }
-}
-
-std::vector<std::string> PluginCatalog::names() const {
-  std::vector<std::string> out;
-  for (const auto& [name, _] : plugins_) out.push_back(name);
-  return out;
-}
-
-std::shared_ptr<const PluginLibrary> PluginCatalog::find(const std::string& name) const {
-  auto it = plugins_.find(name);
-  return it == plugins_.end() ? nullptr : it->second;
-}
-
-std::shared_ptr<const PluginLibrary> PluginCatalog::require(const std::string& name) const {
-  auto library = find(name);
-  if (!library) {
-    std::string known;
-    for (const auto& n : names()) known += (known.empty() ? "" : ", ") + n;
-    throw ConfigError("unknown plugin '" + name + "'; known plugins: " + (known.empty() ? "(none)" : known));
-  }
-  return library;
+  scan(directories, [&](const fs::path& file) {
+    std::shared_ptr<const PluginLibrary> library = PluginLibrary::open(file, supported_kinds);
+    return std::make_pair(library->name(), library);
+  });
 }
 
 LocalizerPtr PluginCatalog::create(const std::string& name) const { return require(name)->create(); }

@@ -215,53 +215,10 @@ PluginDescription inspect_plugin(const fs::path& file, const InspectorSettings& 
 
 PluginIndex::PluginIndex(const std::vector<fs::path>& directories, const InspectorSettings& settings, Logger& logger,
                          uint32_t supported_kinds) {
-  for (const auto& dir : directories) {
-    std::error_code ec;
-    if (!fs::is_directory(dir, ec)) {
-      rejected_.push_back(dir.string() + ": plugin directory does not exist");
-      continue;
-    }
-    std::vector<fs::path> files;
-    for (const auto& entry : fs::directory_iterator(dir, ec)) {
-      if (entry.is_regular_file() && entry.path().extension() == ".so") files.push_back(entry.path());
-    }
-    std::sort(files.begin(), files.end());
-    for (const auto& file : files) {
-      try {
-        auto description = std::make_shared<PluginDescription>(inspect_plugin(file, settings, logger, supported_kinds));
-        const std::string name = description->name;
-        if (plugins_.count(name)) {
-          rejected_.push_back(file.string() + ": plugin '" + name + "' already loaded from " +
-                              plugins_.at(name)->file.string());
-          continue;
-        }
-        plugins_.emplace(name, std::move(description));
-      } catch (const PluginLoadError& e) {
-        rejected_.push_back(e.what());
-      }
-    }
-  }
-}
-
-std::vector<std::string> PluginIndex::names() const {
-  std::vector<std::string> out;
-  for (const auto& [name, _] : plugins_) out.push_back(name);
-  return out;
-}
-
-std::shared_ptr<const PluginDescription> PluginIndex::find(const std::string& name) const {
-  auto it = plugins_.find(name);
-  return it == plugins_.end() ? nullptr : it->second;
-}
-
-std::shared_ptr<const PluginDescription> PluginIndex::require(const std::string& name) const {
-  auto description = find(name);
-  if (!description) {
-    std::string known;
-    for (const auto& n : names()) known += (known.empty() ? "" : ", ") + n;
-    throw ConfigError("unknown plugin '" + name + "'; known plugins: " + (known.empty() ? "(none)" : known));
-  }
-  return description;
+  scan(directories, [&](const fs::path& file) {
+    auto description = std::make_shared<const PluginDescription>(inspect_plugin(file, settings, logger, supported_kinds));
+    return std::make_pair(description->name, description);
+  });
 }
 
 }  // namespace locd::server

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "locd/sdk/plugin.hpp"
+#include "locd/sdk/plugin_set.hpp"
 
 namespace locd {
 
@@ -48,23 +49,14 @@ class PluginLibrary : public std::enable_shared_from_this<PluginLibrary> {
 
 // Every plugin found in a list of directories, keyed by name. Files that fail to load are
 // recorded in rejected() ("file: cause") and never abort the scan.
-class PluginCatalog {
+class PluginCatalog : public PluginSet<PluginLibrary> {
  public:
   PluginCatalog() = default;
   explicit PluginCatalog(const std::vector<std::filesystem::path>& directories,
                          uint32_t supported_kinds = kAllMeasurementKinds);
 
-  std::vector<std::string> names() const;
-  std::shared_ptr<const PluginLibrary> find(const std::string& name) const;  // null if absent
-  // The library of `name`; an unknown name is a ConfigError listing the known plugins.
-  std::shared_ptr<const PluginLibrary> require(const std::string& name) const;
   // Creates an instance; an unknown name is a ConfigError listing the known plugins.
   LocalizerPtr create(const std::string& name) const;
-  const std::vector<std::string>& rejected() const { return rejected_; }
-
- private:
-  std::map<std::string, std::shared_ptr<const PluginLibrary>> plugins_;
-  std::vector<std::string> rejected_;
 };
 
 // Creates, configures and returns a localizer; a throwing configure keeps its ConfigError type,

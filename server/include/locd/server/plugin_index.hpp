@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "locd/sdk/plugin.hpp"
+#include "locd/sdk/plugin_set.hpp"
 #include "locd/server/log.hpp"
 #include "locd/server/worker_launch.hpp"
 
@@ -56,21 +57,11 @@ PluginDescription inspect_plugin(const std::filesystem::path& file, const Inspec
 // Every plugin found in a list of directories, keyed by name. Files that fail inspection are
 // recorded in rejected() ("file: cause") and never abort the scan; of two files naming the same
 // plugin the first (in path order) wins.
-class PluginIndex {
+class PluginIndex : public PluginSet<PluginDescription> {
  public:
   PluginIndex() = default;
   PluginIndex(const std::vector<std::filesystem::path>& directories, const InspectorSettings& settings, Logger& logger,
               uint32_t supported_kinds = kAllMeasurementKinds);
-
-  std::vector<std::string> names() const;
-  std::shared_ptr<const PluginDescription> find(const std::string& name) const;  // null if absent
-  // An unknown name is a ConfigError listing the known plugins.
-  std::shared_ptr<const PluginDescription> require(const std::string& name) const;
-  const std::vector<std::string>& rejected() const { return rejected_; }
-
- private:
-  std::map<std::string, std::shared_ptr<const PluginDescription>> plugins_;
-  std::vector<std::string> rejected_;
 };
 
 }  // namespace locd::server
