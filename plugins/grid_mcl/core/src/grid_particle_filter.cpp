@@ -216,9 +216,7 @@ CorrectionReport GridParticleFilter::correct(const LaserScan& scan, const Pose2&
   // through them for many updates; they make the state uncertain only.
   const StateCriteria& c = config_.state;
   const bool committed = estimate_->mass >= c.tracking_min_cluster_mass;
-  // Only where the map can judge the scan: in a part of the building it lacks, odometry carries.
-  const bool misfit = report.fit < c.tracking_min_fit && report.known >= c.tracking_min_known;
-  lost_updates_ = committed && misfit ? lost_updates_ + 1 : 0;
+  lost_updates_ = committed && report.misfit ? lost_updates_ + 1 : 0;
   const int patience = config_.filter.relocalize_after_lost_updates;
   if (patience > 0 && lost_updates_ >= patience) {
     const std::string reason = assessment_.reason;
@@ -317,6 +315,8 @@ void GridParticleFilter::assess(const PreparedScan& scan, const PreparedScan& de
   const ParticleCluster& e = *estimate_;
   // Hits ending where the map knows nothing (the part of a building it lacks) are not counted.
   report.fit = laser_.fit(e.pose, scan, c.fit_distance, true, &report.known);
+  // Only where the map can judge the scan: in a part of the building it lacks, odometry carries.
+  report.misfit = report.fit < c.tracking_min_fit && report.known >= c.tracking_min_known;
   if (c.tracking_max_see_through < 1.0) {
     report.see_through = laser_.see_through(e.pose, dense, c.see_through_margin, c.see_through_fraction);
   }
@@ -369,9 +369,7 @@ std::optional<Pose2> GridParticleFilter::follow_hypotheses(const PreparedScan& s
   uncertain_updates_ = assessment_.state == LocalizationState::kTracking ? std::max(0, uncertain_updates_ - 1)
                                                                           : uncertain_updates_ + 1;
   const bool committed = estimate_->mass >= c.tracking_min_cluster_mass;
-  // The fit as the relocalization reads it: only where the map can judge the scan.
-  const bool misfit = report.fit < c.tracking_min_fit && report.known >= c.tracking_min_known;
-  const bool fails = misfit || report.see_through > c.tracking_max_see_through;
+  const bool fails = report.misfit || report.see_through > c.tracking_max_see_through;
   if (!committed || !fails || report.beams == 0) {
     hypotheses_.clear();
     return std::nullopt;

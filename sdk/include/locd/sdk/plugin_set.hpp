@@ -13,7 +13,6 @@
 #include <vector>
 
 #include "locd/sdk/errors.hpp"
-#include "locd/sdk/plugin.hpp"
 
 namespace locd {
 

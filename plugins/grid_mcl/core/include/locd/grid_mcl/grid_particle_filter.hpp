@@ -53,6 +53,8 @@ struct CorrectionReport {
   double average_likelihood = 0.0;     // prior-weighted mean pz per beam (w_slow/w_fast input)
   double fit = 0.0;                    // the state's scan fit at the estimate
   double known = 0.0;                  // share of the hits that fit counts (the map knows their end)
+  bool misfit = false;                 // fit below tracking_min_fit where the map can judge the
+                                       // scan (known >= tracking_min_known): what relocalizes
   double see_through = 0.0;            // share of the scan's returns passing through the map's walls
   double sigma_hit = 0.0;              // the field's width this update (search_sigma_hit)
   bool relocalized = false;            // lost too long: global localization restarted, or the
